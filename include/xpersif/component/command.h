@@ -1,0 +1,249 @@
+/**
+ * @file command.h
+ * @brief A command of the paper's component model: an actionlib action server with a contract.
+ *
+ * When a goal arrives it is checked, in this order, against: the component being ACTIVE, no other goal
+ * running, the goal's validation, and the contract's preconditions. A goal that fails a check is
+ * REJECTED with a sentence naming what failed. An accepted goal runs in the command's own thread (never
+ * in a callback thread of the nodelet manager); a client's cancel ends it PREEMPTED, a failure ABORTED
+ * with a reason, success SUCCEEDED with the contract's grounded effects on ~events. Deactivating the
+ * component while a goal runs ends the goal ABORTED ("component deactivated"), never PREEMPTED, so that
+ * a client can tell its own cancel from a stop it did not ask for.
+ */
+#pragma once
+
+#include <actionlib/server/action_server.h>
+#include <ros/ros.h>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "xpersif/component/events.h"
+#include "xpersif/core/contract.h"
+#include "xpersif/core/validation.h"
+
+namespace xpersif {
+
+using core::ContractChecker;
+using core::ContractError;
+
+/// What every command offers its component, whatever its action type.
+class CommandServerBase {
+ public:
+  virtual ~CommandServerBase() = default;
+  virtual const core::Contract& contract() const = 0;
+  virtual void start() = 0;
+  /// End a running goal ABORTED with @p reason and wait until its thread has finished.
+  virtual void stopRunning(const std::string& reason) = 0;
+  virtual bool busy() const = 0;
+};
+
+/// How an executor ends a goal.
+struct CommandOutcome {
+  enum class Code { Succeeded, Aborted, Preempted };
+  Code code = Code::Succeeded;
+  std::string reason;
+
+  static CommandOutcome succeeded(std::string note = "") { return {Code::Succeeded, std::move(note)}; }
+  static CommandOutcome aborted(std::string reason) { return {Code::Aborted, std::move(reason)}; }
+  static CommandOutcome preempted(std::string note = "cancelled on request") { return {Code::Preempted, std::move(note)}; }
+};
+
+template <class ActionSpec>
+class CommandServer : public CommandServerBase {
+ public:
+  ACTION_DEFINITION(ActionSpec);
+  using Server = actionlib::ActionServer<ActionSpec>;
+  using GoalHandle = typename Server::GoalHandle;
+
+  /// What an executor sees of its goal while it runs.
+  class Context {
+   public:
+    const Goal& goal() const { return *goal_; }
+    /// True once the client cancelled or the component is stopping: the executor should return soon.
+    bool stopRequested() const { return cancel_requested_ || halt_requested_ || !ros::ok(); }
+    bool cancelRequested() const { return cancel_requested_; }
+    void publishFeedback(const Feedback& feedback) { handle_.publishFeedback(feedback); }
+    ros::Time started() const { return started_; }
+    /// Wait @p duration of ROS time (simulated time when /clock runs); false if a stop came first.
+    bool sleepFor(const ros::Duration& duration) const {
+      const ros::Time end = ros::Time::now() + duration;
+      while (ros::Time::now() < end) {
+        if (stopRequested()) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+      return !stopRequested();
+    }
+
+   private:
+    friend class CommandServer;
+    GoalHandle handle_;
+    GoalConstPtr goal_;
+    ros::Time started_;
+    std::atomic<bool> cancel_requested_{false};
+    std::atomic<bool> halt_requested_{false};
+    std::string halt_reason_;  // guarded by the server's mutex_
+  };
+
+  using Validate = std::function<void(const Goal&)>;
+  using Execute = std::function<CommandOutcome(Context&, Result&)>;
+  /// Returns "" when the component accepts goals, else the sentence why not.
+  using Readiness = std::function<std::string()>;
+
+  CommandServer(ros::NodeHandle pnh, ContractChecker<Goal> contract, Validate validate, Execute execute,
+                EventSink& events, Readiness readiness)
+      : contract_(std::move(contract)),
+        validate_(std::move(validate)),
+        execute_(std::move(execute)),
+        events_(events),
+        readiness_(std::move(readiness)),
+        server_(pnh, contract_.contract().name, [this](GoalHandle gh) { onGoal(gh); },
+                [this](GoalHandle gh) { onCancel(gh); }, false) {
+    if (contract_.contract().kind != core::Contract::Kind::Command) {
+      throw ContractError("contract '" + contract_.contract().name + "' is registered as a command but declared as an operation");
+    }
+  }
+
+  ~CommandServer() override { stopRunning("the component is being unloaded"); }
+
+  const core::Contract& contract() const override { return contract_.contract(); }
+  void start() override { server_.start(); }
+
+  bool busy() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return running_ && !finished_;
+  }
+
+  void stopRunning(const std::string& reason) override {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (running_ && !finished_) {
+      running_->halt_reason_ = reason;
+      running_->halt_requested_ = true;
+    }
+    joinWorker(lock);
+  }
+
+ private:
+  const std::string& name() const { return contract_.contract().name; }
+
+  // Waits for the worker thread without holding the lock (the worker takes it when it finishes).
+  void joinWorker(std::unique_lock<std::mutex>& lock) {
+    std::thread worker = std::move(worker_);
+    lock.unlock();
+    if (worker.joinable()) worker.join();
+    lock.lock();
+  }
+
+  void reject(GoalHandle& gh, const std::string& reason) {
+    Result result;
+    gh.setRejected(result, reason);
+    ComponentEvent event = events_.make(ComponentEvent::COMMAND, name(), "rejected", reason);
+    event.goal_id = gh.getGoalID().id;
+    event.request = toYaml(*gh.getGoal());
+    events_.publish(event);
+    ROS_DEBUG_STREAM(events_.component() << ": rejected '" << name() << "' goal: " << reason);
+  }
+
+  void onGoal(GoalHandle gh) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    std::string reason = readiness_ ? readiness_() : "";
+    if (reason.empty() && running_ && !finished_) {
+      reason = "'" + name() + "' is busy with goal " + running_->handle_.getGoalID().id +
+               "; it runs one goal at a time, so cancel that goal or wait for it";
+    }
+    const Goal& goal = *gh.getGoal();
+    if (reason.empty() && validate_) {
+      try {
+        validate_(goal);
+      } catch (const std::exception& e) {
+        reason = std::string("invalid goal: ") + e.what();
+      }
+    }
+    if (reason.empty()) reason = contract_.firstUnmet(goal);
+    if (!reason.empty()) {
+      lock.unlock();
+      reject(gh, reason);
+      return;
+    }
+    joinWorker(lock);  // the previous goal has finished; reap its thread
+    auto context = std::make_shared<Context>();
+    context->handle_ = gh;
+    context->goal_ = gh.getGoal();
+    context->started_ = ros::Time::now();
+    running_ = context;
+    finished_ = false;
+    gh.setAccepted();
+    ComponentEvent event = events_.make(ComponentEvent::COMMAND, name(), "accepted");
+    event.goal_id = gh.getGoalID().id;
+    event.request = toYaml(goal);
+    events_.publish(event);
+    worker_ = std::thread([this, context] { run(context); });
+  }
+
+  void onCancel(GoalHandle gh) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (running_ && !finished_ && running_->handle_.getGoalID().id == gh.getGoalID().id) {
+      running_->cancel_requested_ = true;
+    }
+  }
+
+  void run(std::shared_ptr<Context> context) {
+    Result result;
+    CommandOutcome outcome;
+    try {
+      outcome = execute_(*context, result);
+    } catch (const std::exception& e) {
+      outcome = CommandOutcome::aborted(std::string("'") + name() + "' failed: " + e.what());
+    }
+    std::string halt_reason;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (context->halt_requested_) halt_reason = context->halt_reason_;
+    }
+    GoalHandle& gh = context->handle_;
+    ComponentEvent event;
+    if (!halt_reason.empty() && outcome.code != CommandOutcome::Code::Succeeded) {
+      // A stop the client did not ask for is a failure from the client's point of view.
+      gh.setAborted(result, halt_reason);
+      event = events_.make(ComponentEvent::COMMAND, name(), "aborted", halt_reason);
+    } else if (outcome.code == CommandOutcome::Code::Succeeded) {
+      gh.setSucceeded(result, outcome.reason);
+      event = events_.make(ComponentEvent::COMMAND, name(), "succeeded", outcome.reason);
+      event.effects = contract_.groundEffects(context->goal());
+    } else if (outcome.code == CommandOutcome::Code::Preempted && context->cancelRequested()) {
+      gh.setCanceled(result, outcome.reason);  // an accepted goal that is cancelled ends PREEMPTED
+      event = events_.make(ComponentEvent::COMMAND, name(), "preempted", outcome.reason);
+    } else {
+      const std::string reason = outcome.code == CommandOutcome::Code::Preempted
+                                     ? "'" + name() + "' stopped early although nobody cancelled it"
+                                     : outcome.reason;
+      gh.setAborted(result, reason);
+      event = events_.make(ComponentEvent::COMMAND, name(), "aborted", reason);
+    }
+    event.goal_id = gh.getGoalID().id;
+    event.request = toYaml(context->goal());
+    event.response = toYaml(result);
+    event.duration = (ros::Time::now() - context->started()).toSec();
+    events_.publish(event);
+    std::lock_guard<std::mutex> lock(mutex_);
+    finished_ = true;
+  }
+
+  ContractChecker<Goal> contract_;
+  Validate validate_;
+  Execute execute_;
+  EventSink& events_;
+  Readiness readiness_;
+  Server server_;
+
+  mutable std::mutex mutex_;
+  std::shared_ptr<Context> running_;  // the current or last goal
+  bool finished_ = true;
+  std::thread worker_;
+};
+
+}  // namespace xpersif

@@ -1,0 +1,213 @@
+/**
+ * @file component.h
+ * @brief The base every XPERSIF component derives from: the paper's component model in ROS 1.
+ *
+ * A component has, under its private namespace:
+ *  - lifecycle services `configure`, `activate`, `deactivate`, `shutdown` (xpersif/Transition) and
+ *    `get_state` (xpersif/GetState); illegal transitions are refused with a reason;
+ *  - `status` (xpersif/ComponentStatus), published at `~heartbeat_rate` Hz of wall-clock time;
+ *  - `events` (xpersif/ComponentEvent), one message per transition, operation call and goal outcome;
+ *  - `get_contracts` (xpersif/GetContracts): the contracts of all its commands and operations;
+ *  - its commands (actionlib servers) and operations (services), each with a contract.
+ *
+ * One implementation class runs both as a nodelet and as a node: the class takes (nh, private_nh) and
+ * the shells in shells.h construct it, call start(), and call halt() before destroying it.
+ *
+ * Parameters read by the base: `~heartbeat_rate` (Hz, default 5), `~autostart` (bool, default false:
+ * configure and activate right after start, for use without a supervisor).
+ */
+#pragma once
+
+#include <ros/ros.h>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "xpersif/ComponentStatus.h"
+#include "xpersif/GetContracts.h"
+#include "xpersif/GetState.h"
+#include "xpersif/Transition.h"
+#include "xpersif/component/command.h"
+#include "xpersif/component/events.h"
+#include "xpersif/core/contract.h"
+#include "xpersif/core/lifecycle.h"
+#include "xpersif/core/validation.h"
+
+namespace xpersif {
+
+using core::ContractChecker;
+using core::ContractError;
+using core::Lifecycle;
+using core::LifecycleState;
+using core::LifecycleTransition;
+using core::TransitionResult;
+
+class Component {
+ public:
+  /// @param type the plugin type shown in status, e.g. "xpersif/ExampleCounterNodelet"
+  Component(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type);
+  virtual ~Component();
+  Component(const Component&) = delete;
+  Component& operator=(const Component&) = delete;
+
+  /// Advertise the lifecycle services, status, contracts and commands. Call once, after construction.
+  void start();
+  /// Stop running commands and shut down (FINALIZED). Idempotent; call before destruction.
+  void halt();
+
+  /// Request a lifecycle transition as the services do (with an event and a fresh status).
+  TransitionResult transition(LifecycleTransition transition);
+
+  const std::string& name() const { return name_; }
+  const std::string& type() const { return type_; }
+  LifecycleState state() const { return lifecycle_.state(); }
+  std::vector<core::Contract> contracts() const;
+
+ protected:
+  /// Read parameters and allocate; throw (with a sentence) to fail into ERROR. Runs on every configure.
+  virtual void onConfigure() {}
+  virtual void onActivate() {}
+  /// Running commands have already been stopped (ABORTED) when this runs.
+  virtual void onDeactivate() {}
+  virtual void onShutdown() {}
+  /// Add parts or supervised components to a status message and lower its health. Heartbeat rate.
+  virtual void fillStatus(ComponentStatus& status) { (void)status; }
+
+  /// "" when the component is ACTIVE, else the sentence saying that @p what needs it ACTIVE.
+  std::string whyNotActive(const std::string& what) const;
+
+  /// True while halt() runs: the process or nodelet is going away, so skip calls to other nodes.
+  bool halting() const { return halting_; }
+
+  /// Put the component in ERROR because of a fault found while running; logs and reports an event.
+  void reportError(const std::string& error);
+
+  /**
+   * @brief Offer an operation (a service that answers at once) under the component's private namespace.
+   *
+   * The response type must have `bool success` and `string message`. The call is refused (success false,
+   * message says why, nothing changed) when the component is not ACTIVE and @p requires_active is set,
+   * when @p validate throws, or when a precondition of @p contract fails. A @p handle that throws reports
+   * failure with the exception's text; handlers validate before they change anything.
+   */
+  template <class Service>
+  void addOperation(ContractChecker<typename Service::Request> contract,
+                    std::function<void(const typename Service::Request&)> validate,
+                    std::function<void(const typename Service::Request&, typename Service::Response&)> handle,
+                    bool requires_active = true);
+
+  /// Offer a command (an action); see command.h for the checks and outcomes.
+  template <class ActionSpec>
+  void addCommand(ContractChecker<typename CommandServer<ActionSpec>::Goal> contract,
+                  typename CommandServer<ActionSpec>::Validate validate,
+                  typename CommandServer<ActionSpec>::Execute execute);
+
+  ros::NodeHandle& nodeHandle() { return nh_; }
+  ros::NodeHandle& privateNodeHandle() { return pnh_; }
+  EventSink& events() { return events_; }
+  void publishStatus();
+
+ private:
+  bool onTransitionService(LifecycleTransition transition, Transition::Response& response);
+  bool onGetState(GetState::Response& response);
+  bool onGetContracts(GetContracts::Request& request, GetContracts::Response& response);
+  void stopCommands(const std::string& reason);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  std::string type_;
+  Lifecycle lifecycle_;
+  EventSink events_;  // declared before commands_: command threads publish events until they are joined
+
+  mutable std::mutex contracts_mutex_;
+  std::vector<core::Contract> operation_contracts_;
+  std::vector<std::unique_ptr<CommandServerBase>> commands_;
+
+  std::vector<ros::ServiceServer> services_;
+  ros::Publisher status_pub_;
+  ros::WallTimer heartbeat_timer_;
+  ros::WallTimer autostart_timer_;
+  std::uint64_t heartbeat_ = 0;
+  double heartbeat_period_ = 0.2;
+  std::mutex status_mutex_;
+  bool started_ = false;
+  bool halted_ = false;
+  std::atomic<bool> halting_{false};
+};
+
+// ---- templates ----------------------------------------------------------------------------------
+
+template <class Service>
+void Component::addOperation(ContractChecker<typename Service::Request> contract,
+                             std::function<void(const typename Service::Request&)> validate,
+                             std::function<void(const typename Service::Request&, typename Service::Response&)> handle,
+                             bool requires_active) {
+  using Request = typename Service::Request;
+  using Response = typename Service::Response;
+  if (contract.contract().kind != core::Contract::Kind::Operation) {
+    throw ContractError("contract '" + contract.contract().name + "' is registered as an operation but declared as a command");
+  }
+  {
+    std::lock_guard<std::mutex> lock(contracts_mutex_);
+    operation_contracts_.push_back(contract.contract());
+  }
+  auto checker = std::make_shared<ContractChecker<Request>>(std::move(contract));
+  const std::string op = checker->contract().name;
+  boost::function<bool(Request&, Response&)> callback = [this, checker, validate, handle, requires_active, op](
+                                                            Request& request, Response& response) {
+    const ros::Time started = ros::Time::now();
+    std::string refusal = requires_active ? whyNotActive("operation '" + op + "'") : "";
+    if (refusal.empty() && validate) {
+      try {
+        validate(request);
+      } catch (const std::exception& e) {
+        refusal = std::string("invalid request: ") + e.what();
+      }
+    }
+    if (refusal.empty()) refusal = checker->firstUnmet(request);
+    ComponentEvent event;
+    if (!refusal.empty()) {
+      response = Response();
+      response.success = false;
+      response.message = refusal;
+      event = events_.make(ComponentEvent::OPERATION, op, "refused", refusal);
+    } else {
+      try {
+        handle(request, response);
+        response.success = true;
+        event = events_.make(ComponentEvent::OPERATION, op, "ok");
+        event.effects = checker->groundEffects(request);
+      } catch (const std::exception& e) {
+        response.success = false;
+        response.message = e.what();
+        event = events_.make(ComponentEvent::OPERATION, op, "failed", response.message);
+      }
+    }
+    event.request = toYaml(request);
+    event.response = toYaml(response);
+    event.duration = (ros::Time::now() - started).toSec();
+    events_.publish(event);
+    return true;  // the call itself went through; success and message carry the outcome
+  };
+  services_.push_back(pnh_.advertiseService<Request, Response>(op, callback));
+}
+
+template <class ActionSpec>
+void Component::addCommand(ContractChecker<typename CommandServer<ActionSpec>::Goal> contract,
+                           typename CommandServer<ActionSpec>::Validate validate,
+                           typename CommandServer<ActionSpec>::Execute execute) {
+  const std::string command = contract.contract().name;
+  auto server = std::make_unique<CommandServer<ActionSpec>>(
+      pnh_, std::move(contract), std::move(validate), std::move(execute), events_,
+      [this, command] { return whyNotActive("command '" + command + "'"); });
+  std::lock_guard<std::mutex> lock(contracts_mutex_);
+  if (started_) server->start();
+  commands_.push_back(std::move(server));
+}
+
+}  // namespace xpersif

@@ -1,0 +1,114 @@
+/**
+ * @file supervisor.h
+ * @brief The paper's organizational component: it starts, parametrizes, monitors and exits other
+ *        components. LOOPMODEL (the loop) and ROBOTMODEL (the embodiment) are organizational.
+ *
+ * It loads its components into nodelet managers through their `load_nodelet` / `unload_nodelet`
+ * services, sets their parameters, drives their lifecycle services, and watches their `~status`
+ * heartbeats: a component (or its whole manager) that goes silent for `~heartbeat_timeout` seconds is
+ * reported lost on `~events` and in `~status`; with `~restart` set, it is loaded and started again once
+ * its manager answers again (a respawned manager, for instance).
+ *
+ * Parameters, read on configure:
+ * @code
+ * components:                      # started in this order, exited in the reverse order
+ *   - name: counter                # resolved in the supervisor's namespace
+ *     type: xpersif/ExampleCounterNodelet
+ *     manager: loop_manager        # resolved in the supervisor's namespace
+ *     activate: true               # default true; false leaves it INACTIVE
+ *     params: {limit: 100.0}       # set under the component's private namespace before configure
+ * heartbeat_timeout: 1.0           # seconds of silence before a component counts as lost
+ * startup_timeout: 10.0            # seconds a component has to come up after loading
+ * restart: true                    # reload lost components when their manager answers again
+ * @endcode
+ */
+#pragma once
+
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include <atomic>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "xpersif/component/component.h"
+#include "xpersif/core/heartbeat_monitor.h"
+
+namespace xpersif {
+
+/// One supervised component, as configured.
+struct SupervisedComponent {
+  std::string name;     ///< fully resolved node name
+  std::string type;     ///< nodelet plugin type
+  std::string manager;  ///< fully resolved manager node name
+  bool activate = true;
+  XmlRpc::XmlRpcValue params;  ///< a struct, or invalid when there are none
+};
+
+class Supervisor : public Component {
+ public:
+  Supervisor(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type = "xpersif/SupervisorNodelet");
+  ~Supervisor() override;
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+  void fillStatus(ComponentStatus& status) override;
+
+  /// Called from the monitor thread when a component goes silent or comes back.
+  virtual void onComponentLost(const SupervisedComponent& component, const std::string& reason) {
+    (void)component;
+    (void)reason;
+  }
+  virtual void onComponentRestarted(const SupervisedComponent& component) { (void)component; }
+
+  const std::vector<SupervisedComponent>& supervised() const { return components_; }
+  /// Last state heard from @p name (UNCONFIGURED if never heard).
+  LifecycleState lastKnownState(const std::string& name) const;
+
+  /// Call a supervised component's lifecycle service; throws std::runtime_error with the reason on failure.
+  void requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const;
+  /// Load a component into its manager (unless it is already loaded there) and set its parameters.
+  void load(const SupervisedComponent& component) const;
+  /// Unload a component from its manager; returns false (and says why) if that did not work.
+  bool unload(const SupervisedComponent& component, std::string* why) const;
+  /// Load, configure and (if asked) activate one component, waiting for it to answer.
+  void bringUp(const SupervisedComponent& component);
+
+ private:
+  struct Observed {
+    LifecycleState state = LifecycleState::Unconfigured;
+    std::uint8_t health = ComponentStatus::HEALTH_OK;
+    std::string message;
+    std::uint64_t heartbeat = 0;
+    bool lost = false;
+    double next_restart = 0;  // wall time of the next restart attempt
+  };
+
+  static std::vector<SupervisedComponent> parseComponents(const XmlRpc::XmlRpcValue& list, const ros::NodeHandle& nh);
+  void watch(const SupervisedComponent& component);
+  void onStatus(const std::string& name, const ComponentStatus::ConstPtr& status);
+  void monitorLoop();
+  void stopMonitor();
+  bool managerAnswers(const std::string& manager) const;
+  void supervisionEvent(const std::string& name, const std::string& outcome, const std::string& reason);
+
+  std::vector<SupervisedComponent> components_;
+  double heartbeat_timeout_ = 1.0;
+  double startup_timeout_ = 10.0;
+  bool restart_ = true;
+
+  mutable std::mutex mutex_;  // guards monitor_, observed_
+  core::HeartbeatMonitor monitor_{1.0};
+  std::map<std::string, Observed> observed_;
+  std::vector<ros::Subscriber> status_subscribers_;
+
+  std::thread monitor_thread_;
+  std::atomic<bool> monitoring_{false};
+};
+
+}  // namespace xpersif

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Set-up shared by run.sh and test.sh: install the Debian packages that are missing, then build ./build.
+set -euo pipefail
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+missing=()
+while read -r package; do
+  [[ -z "$package" || "$package" == \#* ]] && continue
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+done < "$repo/scripts/debian-packages.txt"
+if ((${#missing[@]})); then
+  echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  sudo=""
+  [[ $(id -u) -eq 0 ]] || sudo=sudo
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+# ROS's tools live in /usr/bin/python3; a python3 earlier on the PATH (pyenv) lacks catkin_pkg.
+cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >"$repo/build.log" 2>&1 ||
+  { cat "$repo/build.log"; exit 1; }
+cmake --build "$repo/build" -j"$(nproc)" >>"$repo/build.log" 2>&1 || { tail -50 "$repo/build.log"; exit 1; }
+echo "setup: built into $repo/build (log: build.log)"

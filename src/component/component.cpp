@@ -1,0 +1,230 @@
+#include "xpersif/component/component.h"
+
+#include "xpersif/Contract.h"
+
+namespace xpersif {
+
+Component::Component(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type)
+    : nh_(std::move(nh)),
+      pnh_(std::move(private_nh)),
+      name_(pnh_.getNamespace()),
+      type_(std::move(type)),
+      events_(pnh_, name_) {
+  lifecycle_.setHooks({
+      [this] { onConfigure(); },
+      [this] { onActivate(); },
+      [this] {
+        stopCommands("component " + name_ + " was deactivated while the command ran");
+        onDeactivate();
+      },
+      [this] { onShutdown(); },
+  });
+}
+
+Component::~Component() { halt(); }
+
+void Component::start() {
+  if (started_) return;
+  double rate = 5.0;
+  pnh_.param("heartbeat_rate", rate, rate);
+  if (!(rate > 0.1 && rate < 1000.0)) {
+    ROS_WARN_STREAM(name_ << ": ~heartbeat_rate " << core::describeNumber(rate) << " is outside (0.1, 1000) Hz; using 5");
+    rate = 5.0;
+  }
+  heartbeat_period_ = 1.0 / rate;
+  // Status and heartbeat are latched so a supervisor that subscribes late sees the state at once.
+  status_pub_ = pnh_.advertise<ComponentStatus>("status", 10, true);
+
+  const std::pair<const char*, LifecycleTransition> transitions[] = {
+      {"configure", LifecycleTransition::Configure},
+      {"activate", LifecycleTransition::Activate},
+      {"deactivate", LifecycleTransition::Deactivate},
+      {"shutdown", LifecycleTransition::Shutdown},
+  };
+  for (const auto& [service, transition] : transitions) {
+    const LifecycleTransition t = transition;
+    boost::function<bool(Transition::Request&, Transition::Response&)> callback =
+        [this, t](Transition::Request&, Transition::Response& response) { return onTransitionService(t, response); };
+    services_.push_back(pnh_.advertiseService<Transition::Request, Transition::Response>(service, callback));
+  }
+  boost::function<bool(GetState::Request&, GetState::Response&)> get_state =
+      [this](GetState::Request&, GetState::Response& response) { return onGetState(response); };
+  services_.push_back(pnh_.advertiseService<GetState::Request, GetState::Response>("get_state", get_state));
+  services_.push_back(pnh_.advertiseService("get_contracts", &Component::onGetContracts, this));
+
+  {
+    std::lock_guard<std::mutex> lock(contracts_mutex_);
+    for (auto& command : commands_) command->start();
+    started_ = true;
+  }
+  publishStatus();
+  // Wall time: heartbeats must go on while simulated time is paused or stepped.
+  heartbeat_timer_ = pnh_.createWallTimer(ros::WallDuration(heartbeat_period_), [this](const ros::WallTimerEvent&) {
+    publishStatus();
+  });
+
+  bool autostart = false;
+  pnh_.param("autostart", autostart, autostart);
+  if (autostart) {
+    // Deferred to a callback: a nodelet's onInit runs inside the manager's load service, and a
+    // component's start-up may itself call that manager (organizational components do).
+    autostart_timer_ = pnh_.createWallTimer(ros::WallDuration(0.01), [this](const ros::WallTimerEvent&) {
+      if (transition(LifecycleTransition::Configure).success) transition(LifecycleTransition::Activate);
+    }, true);
+  }
+}
+
+void Component::halt() {
+  {
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    if (halted_) return;
+    halted_ = true;
+  }
+  halting_ = true;
+  autostart_timer_.stop();
+  stopCommands("component " + name_ + " is shutting down");
+  if (lifecycle_.state() != LifecycleState::Finalized) transition(LifecycleTransition::Shutdown);
+  heartbeat_timer_.stop();
+  if (status_pub_) {
+    ComponentStatus last;
+    last.header.stamp = ros::Time(ros::WallTime::now().toSec());
+    last.component = name_;
+    last.type = type_;
+    last.state = static_cast<std::uint8_t>(lifecycle_.state());
+    last.state_name = toString(lifecycle_.state());
+    last.last_error = lifecycle_.lastError();
+    last.heartbeat_period = heartbeat_period_;
+    status_pub_.publish(last);
+  }
+}
+
+void Component::stopCommands(const std::string& reason) {
+  std::vector<CommandServerBase*> commands;
+  {
+    std::lock_guard<std::mutex> lock(contracts_mutex_);
+    for (auto& c : commands_) commands.push_back(c.get());
+  }
+  for (auto* c : commands) c->stopRunning(reason);
+}
+
+TransitionResult Component::transition(LifecycleTransition transition) {
+  const ros::Time started = ros::Time::now();
+  TransitionResult result = lifecycle_.request(transition);
+  const char* outcome = result.success ? "ok" : (result.state == LifecycleState::Error ? "failed" : "refused");
+  ComponentEvent event = events_.make(ComponentEvent::LIFECYCLE, toString(transition), outcome, result.message);
+  event.response = std::string("state: ") + toString(result.state);
+  event.duration = (ros::Time::now() - started).toSec();
+  events_.publish(event);
+  if (result.success) {
+    ROS_INFO_STREAM(name_ << ": " << toString(transition) << " -> " << toString(result.state));
+  } else {
+    ROS_WARN_STREAM(name_ << ": " << result.message);
+  }
+  publishStatus();
+  return result;
+}
+
+bool Component::onTransitionService(LifecycleTransition t, Transition::Response& response) {
+  const TransitionResult result = transition(t);
+  response.success = result.success;
+  response.message = result.message;
+  response.state = static_cast<std::uint8_t>(result.state);
+  response.state_name = toString(result.state);
+  return true;
+}
+
+bool Component::onGetState(GetState::Response& response) {
+  const LifecycleState state = lifecycle_.state();
+  response.state = static_cast<std::uint8_t>(state);
+  response.state_name = toString(state);
+  response.health = state == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR : ComponentStatus::HEALTH_OK;
+  response.last_error = lifecycle_.lastError();
+  return true;
+}
+
+std::vector<core::Contract> Component::contracts() const {
+  std::lock_guard<std::mutex> lock(contracts_mutex_);
+  std::vector<core::Contract> all;
+  for (const auto& c : commands_) all.push_back(c->contract());
+  all.insert(all.end(), operation_contracts_.begin(), operation_contracts_.end());
+  return all;
+}
+
+namespace {
+
+xpersif::Contract toMessage(const core::Contract& contract) {
+  xpersif::Contract msg;
+  msg.name = contract.name;
+  msg.kind = core::toString(contract.kind);
+  msg.interface_type = contract.interface_type;
+  msg.description = contract.description;
+  msg.parameters = contract.parameters;
+  for (const auto& c : contract.preconditions) {
+    xpersif::Condition condition;
+    condition.literal = c.literal;
+    condition.description = c.description;
+    msg.preconditions.push_back(condition);
+  }
+  msg.effects = contract.effects;
+  return msg;
+}
+
+}  // namespace
+
+bool Component::onGetContracts(GetContracts::Request& request, GetContracts::Response& response) {
+  std::vector<std::string> names;
+  for (const auto& contract : contracts()) {
+    names.push_back(contract.name);
+    if (request.name.empty() || request.name == contract.name) response.contracts.push_back(toMessage(contract));
+  }
+  if (!request.name.empty() && response.contracts.empty()) {
+    response.success = false;
+    response.message = "component " + name_ + " has no command or operation '" + request.name + "'; it has: ";
+    for (std::size_t i = 0; i < names.size(); ++i) response.message += (i ? ", " : "") + names[i];
+    return true;
+  }
+  response.success = true;
+  return true;
+}
+
+std::string Component::whyNotActive(const std::string& what) const {
+  const LifecycleState state = lifecycle_.state();
+  if (state == LifecycleState::Active) return "";
+  std::string reason = what + " needs component " + name_ + " ACTIVE, but it is " + toString(state);
+  if (state == LifecycleState::Error) reason += " (" + lifecycle_.lastError() + ")";
+  return reason;
+}
+
+void Component::reportError(const std::string& error) {
+  ROS_ERROR_STREAM(name_ << ": " << error);
+  lifecycle_.fail(error);
+  stopCommands("component " + name_ + " failed: " + error);
+  events_.publish(events_.make(ComponentEvent::LIFECYCLE, "error", "failed", error));
+  publishStatus();
+}
+
+void Component::publishStatus() {
+  ComponentStatus status;
+  status.header.stamp = ros::Time(ros::WallTime::now().toSec());
+  status.component = name_;
+  status.type = type_;
+  const LifecycleState state = lifecycle_.state();
+  status.state = static_cast<std::uint8_t>(state);
+  status.state_name = toString(state);
+  status.health = state == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR : ComponentStatus::HEALTH_OK;
+  status.last_error = lifecycle_.lastError();
+  status.heartbeat_period = heartbeat_period_;
+  {
+    std::lock_guard<std::mutex> lock(contracts_mutex_);
+    for (const auto& c : commands_) {
+      if (c->busy()) status.running_commands.push_back(c->contract().name);
+    }
+  }
+  fillStatus(status);
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  if (halted_) return;
+  status.heartbeat = ++heartbeat_;
+  status_pub_.publish(status);
+}
+
+}  // namespace xpersif

@@ -1,0 +1,371 @@
+#include "xpersif/component/supervisor.h"
+
+#include <nodelet/NodeletList.h>
+#include <nodelet/NodeletLoad.h>
+#include <nodelet/NodeletUnload.h>
+
+#include <algorithm>
+#include <set>
+#include <stdexcept>
+
+namespace xpersif {
+
+namespace {
+
+double wallNow() { return ros::WallTime::now().toSec(); }
+
+std::string memberString(const XmlRpc::XmlRpcValue& entry, const char* key, const std::string& where) {
+  if (!entry.hasMember(key)) {
+    throw std::runtime_error(where + " has no '" + key + "'; every supervised component needs name, type and manager");
+  }
+  XmlRpc::XmlRpcValue value = entry[key];
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeString) {
+    throw std::runtime_error(where + "." + key + " must be a string");
+  }
+  return static_cast<std::string>(value);
+}
+
+std::uint8_t transitionTarget(LifecycleTransition t) {
+  switch (t) {
+    case LifecycleTransition::Configure: return ComponentStatus::INACTIVE;
+    case LifecycleTransition::Activate: return ComponentStatus::ACTIVE;
+    case LifecycleTransition::Deactivate: return ComponentStatus::INACTIVE;
+    case LifecycleTransition::Shutdown: return ComponentStatus::FINALIZED;
+  }
+  return ComponentStatus::ERROR;
+}
+
+}  // namespace
+
+Supervisor::Supervisor(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type)
+    : Component(std::move(nh), std::move(private_nh), std::move(type)) {}
+
+Supervisor::~Supervisor() { stopMonitor(); }
+
+std::vector<SupervisedComponent> Supervisor::parseComponents(const XmlRpc::XmlRpcValue& list,
+                                                             const ros::NodeHandle& nh) {
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    throw std::runtime_error("~components must be a list of {name, type, manager[, activate, params]}");
+  }
+  static const std::set<std::string> known_keys = {"name", "type", "manager", "activate", "params"};
+  std::vector<SupervisedComponent> components;
+  std::set<std::string> names;
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string where = "~components[" + std::to_string(i) + "]";
+    XmlRpc::XmlRpcValue entry = list[i];
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct) throw std::runtime_error(where + " must be a dictionary");
+    for (auto it = entry.begin(); it != entry.end(); ++it) {
+      if (!known_keys.count(it->first)) {
+        throw std::runtime_error(where + " has unknown key '" + it->first + "'; known: name, type, manager, activate, params");
+      }
+    }
+    SupervisedComponent c;
+    const std::string name = memberString(entry, "name", where);
+    core::requireIdentifier(where + ".name", name);
+    c.name = nh.resolveName(name);
+    c.type = memberString(entry, "type", where);
+    core::requireIdentifier(where + ".type", c.type);
+    const std::string manager = memberString(entry, "manager", where);
+    core::requireIdentifier(where + ".manager", manager);
+    c.manager = nh.resolveName(manager);
+    if (entry.hasMember("activate")) {
+      if (entry["activate"].getType() != XmlRpc::XmlRpcValue::TypeBoolean) {
+        throw std::runtime_error(where + ".activate must be true or false");
+      }
+      c.activate = static_cast<bool>(entry["activate"]);
+    }
+    if (entry.hasMember("params")) {
+      c.params = entry["params"];
+      if (c.params.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+        throw std::runtime_error(where + ".params must be a dictionary of parameter names to values");
+      }
+    }
+    if (!names.insert(c.name).second) throw std::runtime_error(where + " repeats the name " + c.name);
+    components.push_back(c);
+  }
+  return components;
+}
+
+void Supervisor::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  XmlRpc::XmlRpcValue list;
+  std::vector<SupervisedComponent> components;
+  if (pnh.getParam("components", list)) components = parseComponents(list, nodeHandle());
+  double heartbeat_timeout = 1.0, startup_timeout = 10.0;
+  bool restart = true;
+  pnh.param("heartbeat_timeout", heartbeat_timeout, heartbeat_timeout);
+  pnh.param("startup_timeout", startup_timeout, startup_timeout);
+  pnh.param("restart", restart, restart);
+  core::requireInRange("~heartbeat_timeout", heartbeat_timeout, 0.05, 600.0);
+  core::requireInRange("~startup_timeout", startup_timeout, 0.1, 3600.0);
+  // Everything is checked before anything changes: a bad configuration leaves the old one in place.
+  stopMonitor();
+  components_ = std::move(components);
+  heartbeat_timeout_ = heartbeat_timeout;
+  startup_timeout_ = startup_timeout;
+  restart_ = restart;
+  std::lock_guard<std::mutex> lock(mutex_);
+  monitor_ = core::HeartbeatMonitor(heartbeat_timeout_);
+  observed_.clear();
+  status_subscribers_.clear();
+}
+
+void Supervisor::watch(const SupervisedComponent& component) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  monitor_.expect(component.name, wallNow(), startup_timeout_);
+  observed_[component.name];
+  const std::string name = component.name;
+  status_subscribers_.push_back(nodeHandle().subscribe<ComponentStatus>(
+      name + "/status", 10, [this, name](const ComponentStatus::ConstPtr& status) { onStatus(name, status); },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+}
+
+void Supervisor::onActivate() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_subscribers_.clear();
+  }
+  for (const auto& component : components_) {
+    watch(component);
+    try {
+      bringUp(component);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("could not start " + component.name + ": " + e.what());
+    }
+  }
+  monitoring_ = true;
+  monitor_thread_ = std::thread([this] { monitorLoop(); });
+}
+
+void Supervisor::onDeactivate() {
+  stopMonitor();
+  for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
+    try {
+      if (lastKnownState(it->name) == LifecycleState::Active) requestTransition(*it, LifecycleTransition::Deactivate);
+    } catch (const std::exception& e) {
+      ROS_WARN_STREAM(name() << ": " << e.what());
+    }
+  }
+}
+
+void Supervisor::onShutdown() {
+  stopMonitor();
+  // When the supervisor's own process or nodelet is going away, its manager may be the one that
+  // would have to answer; the components are left to their managers.
+  if (halting() || !ros::ok()) return;
+  for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
+    try {
+      requestTransition(*it, LifecycleTransition::Shutdown);
+    } catch (const std::exception& e) {
+      ROS_WARN_STREAM(name() << ": " << e.what());
+    }
+    std::string why;
+    if (unload(*it, &why)) {
+      supervisionEvent(it->name, "unloaded", "");
+    } else {
+      ROS_WARN_STREAM(name() << ": " << why);
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  status_subscribers_.clear();
+}
+
+void Supervisor::stopMonitor() {
+  monitoring_ = false;
+  if (monitor_thread_.joinable()) monitor_thread_.join();
+}
+
+bool Supervisor::managerAnswers(const std::string& manager) const {
+  return ros::service::exists(manager + "/load_nodelet", false);
+}
+
+void Supervisor::load(const SupervisedComponent& component) const {
+  const std::string list_service = component.manager + "/list";
+  if (!ros::service::waitForService(list_service, ros::Duration(startup_timeout_))) {
+    throw std::runtime_error("manager " + component.manager + " does not answer (no " + list_service + " within " +
+                             core::describeNumber(startup_timeout_) + " s)");
+  }
+  if (component.params.valid()) {
+    XmlRpc::XmlRpcValue params = component.params;
+    for (auto it = params.begin(); it != params.end(); ++it) {
+      ros::param::set(component.name + "/" + it->first, it->second);
+    }
+  }
+  nodelet::NodeletList list;
+  if (ros::service::call(list_service, list)) {
+    const auto& loaded = list.response.nodelets;
+    if (std::find(loaded.begin(), loaded.end(), component.name) != loaded.end()) return;
+  }
+  nodelet::NodeletLoad load;
+  load.request.name = component.name;
+  load.request.type = component.type;
+  if (!ros::service::call(component.manager + "/load_nodelet", load) || !load.response.success) {
+    throw std::runtime_error("manager " + component.manager + " could not load " + component.type + " as " +
+                             component.name + " (is the type in a nodelet_plugins.xml? see the manager's log)");
+  }
+}
+
+bool Supervisor::unload(const SupervisedComponent& component, std::string* why) const {
+  nodelet::NodeletUnload unload;
+  unload.request.name = component.name;
+  if (!managerAnswers(component.manager)) {
+    if (why) *why = "manager " + component.manager + " is gone; " + component.name + " went with it";
+    return false;
+  }
+  if (!ros::service::call(component.manager + "/unload_nodelet", unload) || !unload.response.success) {
+    if (why) *why = "manager " + component.manager + " could not unload " + component.name;
+    return false;
+  }
+  return true;
+}
+
+void Supervisor::requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const {
+  const std::string service = component.name + "/" + toString(transition);
+  if (!ros::service::waitForService(service, ros::Duration(startup_timeout_))) {
+    throw std::runtime_error(component.name + " offers no " + service + " service within " +
+                             core::describeNumber(startup_timeout_) + " s");
+  }
+  Transition call;
+  if (!ros::service::call(service, call)) throw std::runtime_error("call to " + service + " failed");
+  // An already reached state (e.g. configure on an INACTIVE component re-reads parameters) is fine.
+  if (!call.response.success && call.response.state != transitionTarget(transition)) {
+    throw std::runtime_error(component.name + " refused to " + toString(transition) + ": " + call.response.message);
+  }
+}
+
+void Supervisor::bringUp(const SupervisedComponent& component) {
+  load(component);
+  supervisionEvent(component.name, "loaded", "");
+  requestTransition(component, LifecycleTransition::Configure);
+  supervisionEvent(component.name, "configured", "");
+  if (component.activate) {
+    requestTransition(component, LifecycleTransition::Activate);
+    supervisionEvent(component.name, "activated", "");
+  }
+}
+
+void Supervisor::onStatus(const std::string& name, const ComponentStatus::ConstPtr& status) {
+  std::string newly_failed;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = observed_.find(name);
+    if (it == observed_.end()) return;
+    Observed& observed = it->second;
+    // A latched status from before a crash repeats an old heartbeat; only a new one counts as alive.
+    if (status->heartbeat != observed.heartbeat || status->state == ComponentStatus::FINALIZED) {
+      monitor_.beat(name, wallNow());
+    }
+    const auto state = static_cast<LifecycleState>(status->state);
+    if (state == LifecycleState::Error && observed.state != LifecycleState::Error) newly_failed = status->last_error;
+    observed.state = state;
+    observed.health = status->health;
+    observed.heartbeat = status->heartbeat;
+    if (!observed.lost) observed.message = status->last_error;
+  }
+  if (!newly_failed.empty()) supervisionEvent(name, "failed", name + " is in ERROR: " + newly_failed);
+}
+
+void Supervisor::monitorLoop() {
+  while (monitoring_ && ros::ok()) {
+    std::vector<core::HeartbeatMonitor::Change> changes;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      changes = monitor_.poll(wallNow());
+    }
+    for (const auto& change : changes) {
+      const auto spec = std::find_if(components_.begin(), components_.end(),
+                                     [&](const SupervisedComponent& c) { return c.name == change.name; });
+      if (spec == components_.end()) continue;
+      std::string reason;
+      if (change.lost) {
+        reason = spec->name + " sent no status for " + core::describeNumber(change.silent_for) + " s; ";
+        if (lastKnownState(spec->name) == LifecycleState::Finalized) {
+          reason += "it was shut down (FINALIZED) by a request that did not come from " + name();
+        } else if (managerAnswers(spec->manager)) {
+          reason += "its manager " + spec->manager + " still answers, so it hung or was unloaded";
+        } else {
+          reason += "its manager " + spec->manager + " is gone";
+        }
+        ROS_ERROR_STREAM(name() << ": " << reason);
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          Observed& observed = observed_[spec->name];
+          observed.lost = true;
+          observed.health = ComponentStatus::HEALTH_STALE;
+          observed.message = reason;
+          observed.next_restart = wallNow() + heartbeat_timeout_;
+        }
+        supervisionEvent(spec->name, "lost", reason);
+        onComponentLost(*spec, reason);
+      } else {
+        std::lock_guard<std::mutex> lock(mutex_);
+        observed_[spec->name].lost = false;
+        observed_[spec->name].message.clear();
+      }
+      if (!change.lost) supervisionEvent(spec->name, "back", spec->name + " sends its status again");
+    }
+    if (restart_) {
+      for (const auto& component : components_) {
+        bool due = false;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          Observed& observed = observed_[component.name];
+          // A component somebody shut down on purpose stays down.
+          due = observed.lost && observed.state != LifecycleState::Finalized && wallNow() >= observed.next_restart;
+          if (due) observed.next_restart = wallNow() + std::max(2.0, heartbeat_timeout_);
+        }
+        if (!due || !managerAnswers(component.manager)) continue;
+        try {
+          std::string ignored;
+          unload(component, &ignored);  // a hung instance must go before a new one can take its name
+          {
+            std::lock_guard<std::mutex> lock(mutex_);
+            monitor_.expect(component.name, wallNow(), startup_timeout_);
+          }
+          bringUp(component);
+          {
+            std::lock_guard<std::mutex> lock(mutex_);
+            observed_[component.name].lost = false;
+            observed_[component.name].message.clear();
+          }
+          supervisionEvent(component.name, "restarted", "loaded again into " + component.manager);
+          onComponentRestarted(component);
+        } catch (const std::exception& e) {
+          supervisionEvent(component.name, "failed", std::string("restart failed: ") + e.what());
+        }
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+LifecycleState Supervisor::lastKnownState(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = observed_.find(name);
+  return it == observed_.end() ? LifecycleState::Unconfigured : it->second.state;
+}
+
+void Supervisor::supervisionEvent(const std::string& component, const std::string& outcome, const std::string& reason) {
+  events().publish(events().make(ComponentEvent::SUPERVISION, component, outcome, reason));
+}
+
+void Supervisor::fillStatus(ComponentStatus& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& component : components_) {
+    PartStatus part;
+    part.name = component.name;
+    auto it = observed_.find(component.name);
+    if (it != observed_.end()) {
+      part.state = static_cast<std::uint8_t>(it->second.state);
+      part.health = it->second.health;
+      part.message = it->second.message;
+    }
+    part.state_name = it != observed_.end() && it->second.lost ? "LOST" : toString(static_cast<LifecycleState>(part.state));
+    if (part.health != ComponentStatus::HEALTH_OK && status.health == ComponentStatus::HEALTH_OK) {
+      status.health = ComponentStatus::HEALTH_WARN;
+    }
+    status.parts.push_back(part);
+  }
+}
+
+}  // namespace xpersif

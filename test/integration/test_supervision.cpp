@@ -1,0 +1,148 @@
+// The organizational base: loading, parametrizing and starting components through nodelet managers,
+// noticing when a supervised component's manager dies, restarting it when the manager is back.
+#include <gtest/gtest.h>
+#include <ros/master.h>
+#include <ros/network.h>
+#include <ros/ros.h>
+#include <signal.h>
+#include <xmlrpcpp/XmlRpcClient.h>
+
+#include "test_helpers.h"
+#include "xpersif/GetState.h"
+
+using xpersif::ComponentEvent;
+using xpersif::ComponentStatus;
+using xpersif_test::Recorder;
+using xpersif_test::transition;
+using xpersif_test::waitFor;
+
+namespace {
+
+// The process id of a node, asked through its XML-RPC API (as rosnode does).
+int pidOf(const std::string& node) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return -1;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue pid_args, pid_result;
+  pid_args[0] = ros::this_node::getName();
+  if (!client.execute("getPid", pid_args, pid_result) || pid_result.size() < 3) return -1;
+  return static_cast<int>(pid_result[2]);
+}
+
+bool partsActive(const ComponentStatus& s, std::size_t expected) {
+  if (s.state != ComponentStatus::ACTIVE || s.parts.size() != expected) return false;
+  for (const auto& p : s.parts) {
+    if (p.state != ComponentStatus::ACTIVE || p.health != ComponentStatus::HEALTH_OK) return false;
+  }
+  return true;
+}
+
+std::uint8_t stateOf(const std::string& component) {
+  xpersif::GetState call;
+  if (!ros::service::call(component + "/get_state", call)) return 255;
+  return call.response.state;
+}
+
+}  // namespace
+
+class Supervision : public ::testing::Test {
+ protected:
+  ros::NodeHandle nh_;
+};
+
+TEST_F(Supervision, LoadsParametrizesAndStartsItsComponents) {
+  Recorder<ComponentStatus> status(nh_, "/supervisor/status");
+  ComponentStatus up;
+  ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& s) { return partsActive(s, 2); }, 60.0, &up))
+      << "the supervisor and both supervised components become ACTIVE";
+  EXPECT_EQ(up.parts[0].name, "/counter");
+  EXPECT_EQ(up.parts[1].name, "/statistics");
+  EXPECT_EQ(stateOf("/counter"), ComponentStatus::ACTIVE);
+  double limit = 0;
+  ASSERT_TRUE(ros::param::get("/counter/limit", limit));
+  EXPECT_DOUBLE_EQ(limit, 50.0) << "the supervisor set the component's parameters before configuring it";
+}
+
+TEST_F(Supervision, SameClassRunsAsAStandaloneNode) {
+  Recorder<ComponentStatus> status(nh_, "/standalone_counter/status");
+  ComponentStatus s;
+  ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& m) { return m.state == ComponentStatus::ACTIVE; }, 30.0, &s));
+  EXPECT_EQ(s.type, "xpersif/ExampleCounterNodelet");
+}
+
+TEST_F(Supervision, BadConfigurationIsRefusedWithTheReason) {
+  ASSERT_TRUE(ros::service::waitForService("/bad_supervisor/configure", ros::Duration(30.0)));
+  auto r = transition("/bad_supervisor", "configure");
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.state_name, "ERROR");
+  EXPECT_NE(r.message.find("~components[0] has no 'manager'"), std::string::npos) << r.message;
+}
+
+TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerIsBack) {
+  Recorder<ComponentStatus> status(nh_, "/supervisor/status");
+  Recorder<ComponentEvent> events(nh_, "/supervisor/events");
+  ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& s) { return partsActive(s, 2); }, 60.0));
+  ASSERT_TRUE(events.waitForConnection(10.0));
+
+  const int pid = pidOf("/worker_manager");
+  ASSERT_GT(pid, 0);
+  const ros::WallTime killed = ros::WallTime::now();
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+
+  ComponentEvent lost;
+  ASSERT_TRUE(events.waitForMatch(
+      [](const ComponentEvent& e) {
+        return e.kind == ComponentEvent::SUPERVISION && e.outcome == "lost" && e.name == "/counter";
+      },
+      10.0, &lost));
+  const double noticed_after = (ros::WallTime::now() - killed).toSec();
+  EXPECT_LT(noticed_after, 5.0) << "a 1 s heartbeat timeout notices within a second or two";
+  EXPECT_NE(lost.reason.find("/counter sent no status for"), std::string::npos) << lost.reason;
+  ROS_INFO_STREAM("noticed after " << noticed_after << " s: " << lost.reason);
+
+  ComponentStatus reported;
+  ASSERT_TRUE(status.waitForMatch(
+      [](const ComponentStatus& s) {
+        return s.health == ComponentStatus::HEALTH_WARN && s.parts.size() == 2 && s.parts[0].state_name == "LOST";
+      },
+      10.0, &reported));
+  EXPECT_EQ(reported.parts[0].health, ComponentStatus::HEALTH_STALE);
+
+  // roslaunch respawns the manager; the supervisor loads and starts the components again.
+  for (const std::string name : {"/counter", "/statistics"}) {
+    ASSERT_TRUE(events.waitForMatch(
+        [&](const ComponentEvent& e) { return e.outcome == "restarted" && e.name == name; }, 60.0))
+        << name << " was not restarted";
+  }
+  const ros::Time restarted = ros::Time(ros::WallTime::now().toSec());
+  ASSERT_TRUE(status.waitForMatch(
+      [&](const ComponentStatus& s) { return s.header.stamp > restarted && partsActive(s, 2); }, 30.0))
+      << "after the restart the supervisor reports both components ACTIVE again";
+  EXPECT_EQ(stateOf("/counter"), ComponentStatus::ACTIVE);
+  double limit = 0;
+  ASSERT_TRUE(ros::param::get("/counter/limit", limit));
+  EXPECT_DOUBLE_EQ(limit, 50.0);
+  EXPECT_NE(pidOf("/worker_manager"), pid);
+}
+
+TEST_F(Supervision, ShutdownExitsAndUnloadsTheComponents) {
+  Recorder<ComponentStatus> status(nh_, "/supervisor/status");
+  ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& s) { return partsActive(s, 2); }, 60.0));
+  auto r = transition("/supervisor", "shutdown");
+  EXPECT_TRUE(r.success) << r.message;
+  EXPECT_TRUE(waitFor([] { return !ros::service::exists("/counter/get_state", false); }, 10.0))
+      << "the supervised components were unloaded from their manager";
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_supervision");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
