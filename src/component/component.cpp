@@ -139,6 +139,9 @@ bool Component::onGetState(GetState::Response& response) {
   response.state_name = toString(state);
   response.health = state == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR : ComponentStatus::HEALTH_OK;
   response.last_error = lifecycle_.lastError();
+  ComponentEvent event = events_.make(ComponentEvent::OPERATION, "get_state", "ok");
+  event.response = toYaml(response);
+  events_.publish(event);
   return true;
 }
 
@@ -177,13 +180,15 @@ bool Component::onGetContracts(GetContracts::Request& request, GetContracts::Res
     names.push_back(contract.name);
     if (request.name.empty() || request.name == contract.name) response.contracts.push_back(toMessage(contract));
   }
-  if (!request.name.empty() && response.contracts.empty()) {
-    response.success = false;
+  response.success = request.name.empty() || !response.contracts.empty();
+  if (!response.success) {
     response.message = "component " + name_ + " has no command or operation '" + request.name + "'; it has: ";
     for (std::size_t i = 0; i < names.size(); ++i) response.message += (i ? ", " : "") + names[i];
-    return true;
   }
-  response.success = true;
+  ComponentEvent event =
+      events_.make(ComponentEvent::OPERATION, "get_contracts", response.success ? "ok" : "refused", response.message);
+  event.request = toYaml(request);
+  events_.publish(event);
   return true;
 }
 

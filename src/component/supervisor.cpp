@@ -236,6 +236,13 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
 void Supervisor::bringUp(const SupervisedComponent& component) {
   load(component);
   supervisionEvent(component.name, "loaded", "");
+  // An already running component (e.g. after the supervisor itself was restarted) is re-parametrized:
+  // configure is only legal from INACTIVE, so it is deactivated first.
+  GetState state;
+  if (ros::service::waitForService(component.name + "/get_state", ros::Duration(startup_timeout_)) &&
+      ros::service::call(component.name + "/get_state", state) && state.response.state == ComponentStatus::ACTIVE) {
+    requestTransition(component, LifecycleTransition::Deactivate);
+  }
   requestTransition(component, LifecycleTransition::Configure);
   supervisionEvent(component.name, "configured", "");
   if (component.activate) {

@@ -58,9 +58,9 @@ class Recorder {
   }
 
  private:
-  ros::Subscriber sub_;
   mutable std::mutex mutex_;
   std::vector<Message> messages_;
+  ros::Subscriber sub_;  // last: destroyed first, so no callback runs on destroyed members
 };
 
 inline xpersif::Transition::Response transition(const std::string& component, const std::string& verb) {

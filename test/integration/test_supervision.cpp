@@ -7,6 +7,10 @@
 #include <signal.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
+#include <cstdio>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "test_helpers.h"
 #include "xpersif/GetState.h"
 
@@ -48,6 +52,23 @@ std::uint8_t stateOf(const std::string& component) {
   return call.response.state;
 }
 
+// Run the console client; return its exit code and put what it printed (stdout and stderr) in @p output.
+int runConsole(const std::string& arguments, std::string* output) {
+  // The console client is built next to this test, in the devel space's lib/xpersif.
+  char self[4096] = {0};
+  const ssize_t length = readlink("/proc/self/exe", self, sizeof self - 1);
+  if (length <= 0) return -1;
+  std::string directory(self, static_cast<std::size_t>(length));
+  directory.resize(directory.rfind('/'));
+  FILE* pipe = popen((directory + "/xpersif " + arguments + " 2>&1").c_str(), "r");
+  if (!pipe) return -1;
+  char buffer[512];
+  output->clear();
+  while (fgets(buffer, sizeof buffer, pipe)) *output += buffer;
+  const int status = pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
 }  // namespace
 
 class Supervision : public ::testing::Test {
@@ -73,6 +94,28 @@ TEST_F(Supervision, SameClassRunsAsAStandaloneNode) {
   ComponentStatus s;
   ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& m) { return m.state == ComponentStatus::ACTIVE; }, 30.0, &s));
   EXPECT_EQ(s.type, "xpersif/ExampleCounterNodelet");
+}
+
+TEST_F(Supervision, ConsoleClientShowsAndChangesStates) {
+  std::string out;
+  ASSERT_EQ(runConsole("wait --timeout 60 /supervisor", &out), 0) << out;
+  ASSERT_EQ(runConsole("status", &out), 0) << out;
+  EXPECT_NE(out.find("/counter"), std::string::npos) << out;
+  EXPECT_NE(out.find("xpersif/ExampleStatisticsNodelet"), std::string::npos) << out;
+  EXPECT_NE(out.find("extremes"), std::string::npos) << "parts are listed: " << out;
+
+  EXPECT_EQ(runConsole("contracts /counter count_to", &out), 0) << out;
+  EXPECT_NE(out.find("requires within_limit(?target)"), std::string::npos) << out;
+
+  EXPECT_EQ(runConsole("deactivate /standalone_counter", &out), 0) << out;
+  EXPECT_NE(out.find("INACTIVE"), std::string::npos) << out;
+  EXPECT_EQ(runConsole("deactivate /standalone_counter", &out), 1);
+  EXPECT_NE(out.find("only an ACTIVE component can be deactivated"), std::string::npos) << out;
+  EXPECT_EQ(runConsole("activate /standalone_counter", &out), 0) << out;
+
+  EXPECT_EQ(runConsole("wait --timeout 1 /nobody", &out), 1);
+  EXPECT_NE(out.find("/nobody has not reported its status"), std::string::npos) << out;
+  EXPECT_EQ(runConsole("fly /counter", &out), 2) << out;
 }
 
 TEST_F(Supervision, BadConfigurationIsRefusedWithTheReason) {

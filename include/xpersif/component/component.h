@@ -128,16 +128,18 @@ class Component {
   std::vector<core::Contract> operation_contracts_;
   std::vector<std::unique_ptr<CommandServerBase>> commands_;
 
-  std::vector<ros::ServiceServer> services_;
-  ros::Publisher status_pub_;
-  ros::WallTimer heartbeat_timer_;
-  ros::WallTimer autostart_timer_;
   std::uint64_t heartbeat_ = 0;
   double heartbeat_period_ = 0.2;
   std::mutex status_mutex_;
   bool started_ = false;
   bool halted_ = false;
   std::atomic<bool> halting_{false};
+
+  // ROS handles last: they are destroyed first, so no callback runs on members already gone.
+  ros::Publisher status_pub_;
+  std::vector<ros::ServiceServer> services_;
+  ros::WallTimer heartbeat_timer_;
+  ros::WallTimer autostart_timer_;
 };
 
 // ---- templates ----------------------------------------------------------------------------------
