@@ -1,0 +1,78 @@
+/**
+ * @file scene.h
+ * @brief The scene description XPERSim builds once and clients render from: nodes (tf frames) with their
+ *        visual shapes and colours, and the cameras. Per frame only the dynamic nodes' transforms change
+ *        (the paper's scene nodes, sent as tf); everything here is sent once.
+ *
+ * Conventions: metres, radians, right-handed; a node's pose is relative to its parent frame; a camera's
+ * frame is an optical frame (z forward, x right, y down), as in ROS camera drivers.
+ */
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace xpersif::core {
+
+struct Rgba {
+  float r = 0.5f, g = 0.5f, b = 0.5f, a = 1.0f;
+};
+
+struct Shape {
+  enum class Type { Box, Cylinder, Sphere };
+  Type type = Type::Box;
+  Eigen::Vector3d box_size{0.1, 0.1, 0.1};  ///< box: full extents along its x, y, z
+  double radius = 0.05;                     ///< cylinder and sphere
+  double length = 0.1;                      ///< cylinder, along its local z axis
+};
+
+/// One coloured shape, placed in its node's frame.
+struct Visual {
+  Shape shape;
+  Rgba color;
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();  ///< node_from_visual
+};
+
+/// A scene node: one tf frame.
+struct SceneNode {
+  std::string name;    ///< the tf frame id
+  std::string parent;  ///< the parent frame id (the world frame for top-level nodes)
+  bool dynamic = false;  ///< moves on its own: on /tf every frame; otherwise once on /tf_static
+  Eigen::Isometry3d parent_from_node = Eigen::Isometry3d::Identity();  ///< initial (dynamic) or fixed pose
+  std::vector<Visual> visuals;
+};
+
+/// A pinhole camera looking along +z of its optical frame.
+struct CameraModel {
+  std::string name;   ///< e.g. "overhead"
+  std::string frame;  ///< its optical frame, a node of the scene
+  int width = 600;
+  int height = 416;
+  double fx = 500, fy = 500, cx = 300, cy = 208;
+  double near_clip = 0.005, far_clip = 20.0;
+};
+
+struct SceneDescription {
+  std::string world_frame = "world";
+  std::vector<SceneNode> nodes;  ///< parents come before their children
+  std::vector<CameraModel> cameras;
+
+  /// The node called @p name, or nullptr.
+  const SceneNode* findNode(const std::string& name) const;
+  const CameraModel* findCamera(const std::string& name) const;
+};
+
+/// Transforms of frames, by frame id.
+using FrameTransforms = std::map<std::string, Eigen::Isometry3d>;
+
+/**
+ * @brief world_from_node for every node: each node's parent_from_node, replaced by @p current where it
+ *        has an entry (the dynamic nodes' latest poses), chained up to the world frame.
+ * @throws std::invalid_argument if a node's parent is neither the world nor an earlier node
+ */
+FrameTransforms worldTransforms(const SceneDescription& scene, const FrameTransforms& current = {});
+
+}  // namespace xpersif::core
