@@ -1,0 +1,111 @@
+/**
+ * @file world_spec.h
+ * @brief What XPERSim simulates, read from a world file (YAML) and the robot's URDF: physics settings,
+ *        arena, robot, objects and cameras. ROS-free (yaml-cpp, urdfdom).
+ *
+ * Any robot morphology the URDF can describe is accepted as long as its links' collision shapes are
+ * boxes, cylinders or spheres and its moving joints are revolute or continuous (driven by velocity
+ * motors); fixed joints merge a link into its parent's rigid body.
+ */
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "xpersif/core/scene.h"
+
+namespace xpersif::core {
+
+/// A world file or URDF that cannot be used; what() says which file, where, and what is wrong.
+class WorldError : public std::runtime_error {
+ public:
+  explicit WorldError(const std::string& what) : std::runtime_error(what) {}
+};
+
+struct PhysicsSpec {
+  double step = 0.001;  ///< seconds per physics step
+  double gravity = -9.81;
+  unsigned long seed = 1;
+  int iterations = 30;
+  double max_speed = 5.0;  ///< m/s; faster (or non-finite) bodies count as a blow-up
+};
+
+struct ArenaSpec {
+  double size_x = 0.9, size_y = 0.6;  ///< inner extents
+  double wall_height = 0.05, wall_thickness = 0.02;
+  Rgba wall_color{0.55f, 0.55f, 0.6f, 1.0f};
+  Rgba floor_color{0.93f, 0.93f, 0.9f, 1.0f};
+};
+
+/// A link of the robot: its geometry and where it sits.
+struct LinkSpec {
+  std::string name;
+  std::string parent;  ///< "" for the root link
+  std::string joint;   ///< name of the joint to the parent
+  enum class JointType { Root, Fixed, Revolute } joint_type = JointType::Root;
+  Eigen::Isometry3d parent_from_link = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< revolute joints, in the link frame
+  double mass = 0;                                  ///< 0 = massless (fixed links only)
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();    ///< centre of mass in the link frame
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+  std::vector<Visual> collisions;  ///< collision shapes (colour unused)
+  std::vector<Visual> visuals;
+};
+
+struct RobotSpec {
+  std::string name;
+  std::vector<LinkSpec> links;  ///< parents before children; links[0] is the root
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< world_from_root at the start (z is filled in)
+  std::string left_wheel_joint, right_wheel_joint;
+  double wheel_radius = 0;      ///< from the wheels' collision spheres or cylinders
+  double wheel_separation = 0;  ///< distance between the wheel centres
+  double max_wheel_speed = 0.5;   ///< m/s at the rim
+  double max_wheel_torque = 0.005;
+  double wheel_friction = 1.0, body_friction = 0.3;
+  std::vector<std::string> ir_sensors;  ///< links whose +x axis is an IR ray
+  double ir_range = 0.06;
+};
+
+struct ObjectSpec {
+  std::string name;
+  Shape shape;
+  double mass = 0.05;
+  double friction = 0.5;
+  Rgba color;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< z is set so the object rests on the floor
+};
+
+struct CameraSpec {
+  CameraModel model;  ///< model.frame is "<name>_optical"
+  std::string parent;  ///< the world frame or a robot link
+  Eigen::Isometry3d parent_from_optical = Eigen::Isometry3d::Identity();
+};
+
+struct WorldSpec {
+  std::string name;
+  std::string source;  ///< the file it came from
+  PhysicsSpec physics;
+  ArenaSpec arena;
+  RobotSpec robot;
+  std::vector<ObjectSpec> objects;
+  std::vector<CameraSpec> cameras;
+
+  /// Names that setPose and friends accept: the robot's name, then the objects'.
+  std::vector<std::string> bodyNames() const;
+};
+
+/// Read a world file; the robot's URDF path is relative to it. @throws WorldError
+WorldSpec loadWorldFile(const std::string& path);
+/// Parse world YAML text (@p base_dir resolves the URDF path; @p source names it in errors). @throws WorldError
+WorldSpec parseWorld(const std::string& yaml_text, const std::string& base_dir, const std::string& source);
+/// Parse a URDF robot. @throws WorldError
+RobotSpec parseRobotUrdf(const std::string& urdf_xml, const std::string& source);
+
+/// Roll, pitch, yaw (fixed axes X, Y, Z) to a rotation, as URDF and ROS do.
+Eigen::Quaterniond quaternionFromRpy(double roll, double pitch, double yaw);
+double yawOf(const Eigen::Isometry3d& pose);
+
+}  // namespace xpersif::core

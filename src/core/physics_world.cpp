@@ -1,0 +1,678 @@
+#include "xpersif/core/physics_world.h"
+
+#include <ode/ode.h>
+
+#include <algorithm>
+#include <functional>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+
+#include "xpersif/core/validation.h"
+
+namespace xpersif::core {
+
+namespace {
+
+void initOde() {
+  static std::once_flag once;
+  std::call_once(once, [] { dInitODE2(0); });
+  // ODE's collision code needs per-thread data in every thread that steps a world.
+  thread_local bool allocated = false;
+  if (!allocated) allocated = dAllocateODEDataForThread(dAllocateMaskAll) != 0;
+}
+
+Eigen::Isometry3d poseOf(dBodyID body) {
+  const dReal* p = dBodyGetPosition(body);
+  const dReal* q = dBodyGetQuaternion(body);  // w, x, y, z
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(p[0], p[1], p[2]);
+  t.linear() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  return t;
+}
+
+void setPoseOf(dBodyID body, const Eigen::Isometry3d& t) {
+  const Eigen::Vector3d p = t.translation();
+  const Eigen::Quaterniond q(t.rotation());
+  dBodySetPosition(body, p.x(), p.y(), p.z());
+  const dQuaternion dq = {q.w(), q.x(), q.y(), q.z()};
+  dBodySetQuaternion(body, dq);
+}
+
+void setGeomOffset(dGeomID geom, const Eigen::Isometry3d& t) {
+  dGeomSetOffsetPosition(geom, t.translation().x(), t.translation().y(), t.translation().z());
+  const Eigen::Quaterniond q(t.rotation());
+  const dQuaternion dq = {q.w(), q.x(), q.y(), q.z()};
+  dGeomSetOffsetQuaternion(geom, dq);
+}
+
+dGeomID createGeom(dSpaceID space, const Shape& shape) {
+  switch (shape.type) {
+    case Shape::Type::Box: return dCreateBox(space, shape.box_size.x(), shape.box_size.y(), shape.box_size.z());
+    case Shape::Type::Cylinder: return dCreateCylinder(space, shape.radius, shape.length);
+    case Shape::Type::Sphere: return dCreateSphere(space, shape.radius);
+  }
+  return nullptr;
+}
+
+// Lowest point of a shape placed at @p t (exact for spheres, upright cylinders and boxes).
+double lowestZ(const Shape& shape, const Eigen::Isometry3d& t) {
+  const Eigen::Vector3d c = t.translation();
+  switch (shape.type) {
+    case Shape::Type::Sphere: return c.z() - shape.radius;
+    case Shape::Type::Cylinder: {
+      const Eigen::Vector3d axis = t.rotation().col(2);
+      const double radial = shape.radius * std::sqrt(std::max(0.0, 1.0 - axis.z() * axis.z()));
+      return c.z() - std::fabs(axis.z()) * shape.length / 2 - radial;
+    }
+    case Shape::Type::Box: {
+      double low = std::numeric_limits<double>::infinity();
+      for (int i = 0; i < 8; ++i) {
+        const Eigen::Vector3d corner((i & 1 ? 0.5 : -0.5) * shape.box_size.x(), (i & 2 ? 0.5 : -0.5) * shape.box_size.y(),
+                                     (i & 4 ? 0.5 : -0.5) * shape.box_size.z());
+        low = std::min(low, (t * corner).z());
+      }
+      return low;
+    }
+  }
+  return c.z();
+}
+
+struct BodyState {
+  dVector3 position, linear, angular;
+  dQuaternion orientation;
+};
+
+// Per-geom contact data: friction coefficient and whether it belongs to the robot.
+struct GeomInfo {
+  double friction = 1.0;
+  bool robot = false;
+};
+
+constexpr int kMaxContacts = 8;
+
+}  // namespace
+
+struct PhysicsWorld::Impl {
+  const WorldSpec& spec;
+  dWorldID world = nullptr;
+  dSpaceID space = nullptr;
+  dJointGroupID contacts = nullptr;
+
+  std::vector<dBodyID> robot_bodies;                 // index 0: the root link
+  std::map<std::string, dBodyID> link_body;          // every link -> the body it moves with
+  std::map<std::string, Eigen::Isometry3d> body_from_link;  // link pose in that body's frame
+  std::map<std::string, dJointID> link_joint;        // revolute links -> hinge joint
+  std::vector<std::pair<std::string, dBodyID>> objects;
+  std::vector<std::unique_ptr<GeomInfo>> geom_infos;
+
+  dJointID left_wheel = nullptr, right_wheel = nullptr;
+  double left_command = 0, right_command = 0;  // rim speeds
+  double left_angle = 0, right_angle = 0;
+  Odometry odometry;
+
+  std::vector<dGeomID> ir_rays;
+  std::vector<std::pair<dBodyID, Eigen::Isometry3d>> ir_mounts;
+
+  double time = 0;
+  std::uint64_t steps = 0;
+  unsigned long random_seed = 1;
+
+  std::vector<BodyState> good_state;
+  double good_time = 0, good_left_angle = 0, good_right_angle = 0;
+  Odometry good_odometry;
+
+  explicit Impl(const WorldSpec& s) : spec(s) {}
+  ~Impl() { destroy(); }
+
+  void destroy() {
+    for (auto ray : ir_rays) dGeomDestroy(ray);
+    ir_rays.clear();
+    if (contacts) dJointGroupDestroy(contacts);
+    if (space) dSpaceDestroy(space);  // destroys its geoms (cleanup mode is on)
+    if (world) dWorldDestroy(world);  // destroys bodies and joints
+    contacts = nullptr;
+    space = nullptr;
+    world = nullptr;
+    robot_bodies.clear();
+    link_body.clear();
+    body_from_link.clear();
+    link_joint.clear();
+    objects.clear();
+    geom_infos.clear();
+    ir_mounts.clear();
+  }
+
+  dGeomID addGeom(const Shape& shape, dBodyID body, const Eigen::Isometry3d& offset, double friction, bool robot) {
+    dGeomID geom = createGeom(space, shape);
+    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{friction, robot}));
+    dGeomSetData(geom, geom_infos.back().get());
+    if (body) {
+      dGeomSetBody(geom, body);
+      setGeomOffset(geom, offset);
+    } else {
+      dGeomSetPosition(geom, offset.translation().x(), offset.translation().y(), offset.translation().z());
+    }
+    return geom;
+  }
+
+  void build() {
+    initOde();
+    random_seed = spec.physics.seed;
+    world = dWorldCreate();
+    space = dHashSpaceCreate(nullptr);
+    contacts = dJointGroupCreate(0);
+    dWorldSetGravity(world, 0, 0, spec.physics.gravity);
+    dWorldSetQuickStepNumIterations(world, spec.physics.iterations);
+    dWorldSetERP(world, 0.2);
+    dWorldSetCFM(world, 1e-6);
+    dWorldSetContactSurfaceLayer(world, 0.0002);
+    dWorldSetContactMaxCorrectingVel(world, 0.5);
+    dWorldSetAutoDisableFlag(world, 0);  // disabling bodies would make results depend on history
+
+    buildArena();
+    buildRobot();
+    for (const auto& object : spec.objects) buildObject(object);
+    saveGoodState();
+  }
+
+  void buildArena() {
+    const ArenaSpec& a = spec.arena;
+    dGeomID floor = dCreatePlane(space, 0, 0, 1, 0);
+    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{1.0, false}));
+    dGeomSetData(floor, geom_infos.back().get());
+    const double t = a.wall_thickness, h = a.wall_height;
+    const double hx = a.size_x / 2 + t / 2, hy = a.size_y / 2 + t / 2;
+    const struct {
+      double x, y, sx, sy;
+    } walls[] = {{hx, 0, t, a.size_y + 2 * t}, {-hx, 0, t, a.size_y + 2 * t}, {0, hy, a.size_x, t}, {0, -hy, a.size_x, t}};
+    for (const auto& w : walls) {
+      Shape box;
+      box.box_size = Eigen::Vector3d(w.sx, w.sy, h);
+      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+      at.translation() = Eigen::Vector3d(w.x, w.y, h / 2);
+      addGeom(box, nullptr, at, 0.5, false);
+    }
+  }
+
+  static void setMass(dBodyID body, const LinkSpec& link) {
+    dMass m;
+    const Eigen::Matrix3d& i = link.inertia;
+    const bool usable = i.trace() > 0 && i.determinant() > 0;
+    if (usable) {
+      dMassSetParameters(&m, link.mass, 0, 0, 0, i(0, 0), i(1, 1), i(2, 2), i(0, 1), i(0, 2), i(1, 2));
+    } else if (!link.collisions.empty()) {
+      // No usable inertia in the URDF: take the first collision shape's, with the link's mass.
+      const Shape& s = link.collisions[0].shape;
+      if (s.type == Shape::Type::Box) {
+        dMassSetBoxTotal(&m, link.mass, s.box_size.x(), s.box_size.y(), s.box_size.z());
+      } else if (s.type == Shape::Type::Cylinder) {
+        dMassSetCylinderTotal(&m, link.mass, 3, s.radius, s.length);
+      } else {
+        dMassSetSphereTotal(&m, link.mass, s.radius);
+      }
+    } else {
+      dMassSetSphereTotal(&m, link.mass, 0.01);
+    }
+    dBodySetMass(body, &m);
+  }
+
+  void buildRobot() {
+    const RobotSpec& robot = spec.robot;
+    // World pose of every link at the start, and the lowest point, to set the robot on the floor.
+    std::map<std::string, Eigen::Isometry3d> world_from_link;
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const auto& link : robot.links) {
+      world_from_link[link.name] = link.parent.empty() ? robot.pose : world_from_link[link.parent] * link.parent_from_link;
+      for (const auto& c : link.collisions) lowest = std::min(lowest, lowestZ(c.shape, world_from_link[link.name] * c.offset));
+    }
+    const double lift = std::isfinite(lowest) ? robot.pose.translation().z() - lowest + 0.0001 : 0;
+    for (auto& entry : world_from_link) entry.second.translation().z() += lift;
+    const Eigen::Isometry3d& start = world_from_link[robot.links[0].name];
+    odometry.x = start.translation().x();
+    odometry.y = start.translation().y();
+    odometry.yaw = yawOf(start);
+
+    for (const auto& link : robot.links) {
+      dBodyID body;
+      if (link.joint_type == LinkSpec::JointType::Fixed) {
+        body = link_body.at(link.parent);
+        body_from_link[link.name] = body_from_link.at(link.parent) * link.parent_from_link;
+      } else {
+        body = dBodyCreate(world);
+        setMass(body, link);
+        setPoseOf(body, world_from_link[link.name]);
+        robot_bodies.push_back(body);
+        body_from_link[link.name] = Eigen::Isometry3d::Identity();
+        if (link.joint_type == LinkSpec::JointType::Revolute) {
+          dJointID hinge = dJointCreateHinge(world, nullptr);
+          // ODE measures a hinge's angle and rate as body1 relative to body2: the link is body1.
+          dJointAttach(hinge, body, link_body.at(link.parent));
+          const Eigen::Vector3d anchor = world_from_link[link.name].translation();
+          const Eigen::Vector3d axis = world_from_link[link.name].rotation() * link.axis.normalized();
+          dJointSetHingeAnchor(hinge, anchor.x(), anchor.y(), anchor.z());
+          dJointSetHingeAxis(hinge, axis.x(), axis.y(), axis.z());
+          link_joint[link.name] = hinge;
+          if (link.joint == robot.left_wheel_joint) left_wheel = hinge;
+          if (link.joint == robot.right_wheel_joint) right_wheel = hinge;
+          dJointSetHingeParam(hinge, dParamFMax, robot.max_wheel_torque);
+          dJointSetHingeParam(hinge, dParamVel, 0.0);
+        }
+      }
+      link_body[link.name] = body;
+      const bool wheel = link.joint == robot.left_wheel_joint || link.joint == robot.right_wheel_joint;
+      // Passive links below the body (sliders) slide without friction; wheels grip.
+      const bool slider = link.joint_type == LinkSpec::JointType::Fixed && link.mass == 0 && link.visuals.empty();
+      const double friction = wheel ? robot.wheel_friction : slider ? 0.0 : robot.body_friction;
+      for (const auto& c : link.collisions) addGeom(c.shape, body, body_from_link[link.name] * c.offset, friction, true);
+    }
+    for (const auto& ir : robot.ir_sensors) {
+      ir_mounts.emplace_back(link_body.at(ir), body_from_link.at(ir));
+      dGeomID ray = dCreateRay(nullptr, robot.ir_range);
+      ir_rays.push_back(ray);
+    }
+  }
+
+  void buildObject(const ObjectSpec& object) {
+    dBodyID body = dBodyCreate(world);
+    dMass m;
+    switch (object.shape.type) {
+      case Shape::Type::Box:
+        dMassSetBoxTotal(&m, object.mass, object.shape.box_size.x(), object.shape.box_size.y(), object.shape.box_size.z());
+        break;
+      case Shape::Type::Cylinder: dMassSetCylinderTotal(&m, object.mass, 3, object.shape.radius, object.shape.length); break;
+      case Shape::Type::Sphere: dMassSetSphereTotal(&m, object.mass, object.shape.radius); break;
+    }
+    dBodySetMass(body, &m);
+    Eigen::Isometry3d pose = object.pose;
+    pose.translation().z() += -lowestZ(object.shape, pose) + 0.0001;  // rest on the floor
+    setPoseOf(body, pose);
+    addGeom(object.shape, body, Eigen::Isometry3d::Identity(), object.friction, false);
+    objects.emplace_back(object.name, body);
+  }
+
+  static void nearCallback(void* data, dGeomID a, dGeomID b) {
+    auto* self = static_cast<Impl*>(data);
+    dBodyID ba = dGeomGetBody(a), bb = dGeomGetBody(b);
+    if (ba && bb && dAreConnectedExcluding(ba, bb, dJointTypeContact)) return;
+    if (ba == bb) return;
+    const auto* ia = static_cast<const GeomInfo*>(dGeomGetData(a));
+    const auto* ib = static_cast<const GeomInfo*>(dGeomGetData(b));
+    if (ia && ib && ia->robot && ib->robot) return;  // the robot does not collide with itself
+    dContact contact[kMaxContacts];
+    const int n = dCollide(a, b, kMaxContacts, &contact[0].geom, sizeof(dContact));
+    const double mu = std::sqrt((ia ? ia->friction : 1.0) * (ib ? ib->friction : 1.0));
+    for (int i = 0; i < n; ++i) {
+      contact[i].surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
+      contact[i].surface.mu = mu;
+      contact[i].surface.soft_erp = 0.4;
+      contact[i].surface.soft_cfm = 1e-5;
+      dJointID j = dJointCreateContact(self->world, self->contacts, &contact[i]);
+      dJointAttach(j, ba, bb);
+    }
+  }
+
+  void forEachBody(const std::function<void(dBodyID)>& f) const {
+    for (dBodyID b : robot_bodies) f(b);
+    for (const auto& o : objects) f(o.second);
+  }
+
+  void saveGoodState() {
+    good_state.clear();
+    forEachBody([&](dBodyID b) {
+      BodyState s;
+      std::copy_n(dBodyGetPosition(b), 3, s.position);
+      std::copy_n(dBodyGetQuaternion(b), 4, s.orientation);
+      std::copy_n(dBodyGetLinearVel(b), 3, s.linear);
+      std::copy_n(dBodyGetAngularVel(b), 3, s.angular);
+      good_state.push_back(s);
+    });
+    good_time = time;
+    good_left_angle = left_angle;
+    good_right_angle = right_angle;
+    good_odometry = odometry;
+  }
+
+  void restoreGoodState() {
+    std::size_t i = 0;
+    forEachBody([&](dBodyID b) {
+      const BodyState& s = good_state[i++];
+      dBodySetPosition(b, s.position[0], s.position[1], s.position[2]);
+      dBodySetQuaternion(b, s.orientation);
+      dBodySetLinearVel(b, s.linear[0], s.linear[1], s.linear[2]);
+      dBodySetAngularVel(b, s.angular[0], s.angular[1], s.angular[2]);
+      dBodySetForce(b, 0, 0, 0);
+      dBodySetTorque(b, 0, 0, 0);
+    });
+    time = good_time;
+    left_angle = good_left_angle;
+    right_angle = good_right_angle;
+    odometry = good_odometry;
+  }
+
+  std::string bodyName(dBodyID body) const {
+    for (const auto& [link, b] : link_body) {
+      if (b == body && body_from_link.at(link).isApprox(Eigen::Isometry3d::Identity())) return spec.robot.name + "/" + link;
+    }
+    for (const auto& o : objects) {
+      if (o.second == body) return o.first;
+    }
+    return "a body";
+  }
+
+  // ODE aborts the process on some non-finite inputs, so pending forces are checked before a step.
+  std::string pendingForceProblem() const {
+    std::string problem;
+    forEachBody([&](dBodyID b) {
+      const dReal* f = dBodyGetForce(b);
+      const dReal* t = dBodyGetTorque(b);
+      for (int k = 0; k < 3 && problem.empty(); ++k) {
+        if (!std::isfinite(f[k]) || !std::isfinite(t[k])) problem = bodyName(b) + " has a non-finite force or torque";
+      }
+    });
+    return problem;
+  }
+
+  std::string health() const {
+    std::string problem;
+    forEachBody([&](dBodyID b) {
+      if (!problem.empty()) return;
+      const dReal* p = dBodyGetPosition(b);
+      const dReal* q = dBodyGetQuaternion(b);
+      const dReal* v = dBodyGetLinearVel(b);
+      const dReal* w = dBodyGetAngularVel(b);
+      for (int k = 0; k < 3; ++k) {
+        if (!std::isfinite(p[k]) || !std::isfinite(v[k]) || !std::isfinite(w[k]) || !std::isfinite(q[k]) || !std::isfinite(q[3])) {
+          problem = bodyName(b) + " has a non-finite position, orientation or velocity";
+          return;
+        }
+      }
+      const double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      if (speed > spec.physics.max_speed) {
+        problem = bodyName(b) + " moves at " + describeNumber(speed) + " m/s, faster than physics.max_speed " +
+                  describeNumber(spec.physics.max_speed);
+      }
+    });
+    return problem;
+  }
+
+  void applyWheelCommands() {
+    const double r = spec.robot.wheel_radius;
+    if (left_wheel) dJointSetHingeParam(left_wheel, dParamVel, left_command / r);
+    if (right_wheel) dJointSetHingeParam(right_wheel, dParamVel, right_command / r);
+  }
+
+  // Wheel angle rates are signed so that positive means "forward" for both wheels.
+  double wheelRate(dJointID wheel) const {
+    if (!wheel) return 0;
+    return dJointGetHingeAngleRate(wheel);
+  }
+};
+
+PhysicsWorld::PhysicsWorld(WorldSpec spec) : spec_(std::move(spec)), impl_(std::make_unique<Impl>(spec_)) {
+  impl_->build();
+  scene_ = buildScene();
+}
+
+PhysicsWorld::~PhysicsWorld() = default;
+
+void PhysicsWorld::reset() {
+  impl_->destroy();
+  impl_ = std::make_unique<Impl>(spec_);
+  impl_->build();
+}
+
+PhysicsWorld::StepResult PhysicsWorld::step() {
+  initOde();
+  Impl& w = *impl_;
+  w.applyWheelCommands();
+  StepResult result;
+  std::string problem = w.pendingForceProblem();
+  if (problem.empty()) {
+    dSpaceCollide(w.space, &w, &Impl::nearCallback);
+    // ODE's solver shuffles constraints with a process-wide generator; keep a private seed per world.
+    dRandSetSeed(w.random_seed);
+    dWorldQuickStep(w.world, spec_.physics.step);
+    w.random_seed = dRandGetSeed();
+    dJointGroupEmpty(w.contacts);
+    problem = w.health();
+  }
+  if (!problem.empty()) {
+    w.restoreGoodState();
+    result.ok = false;
+    result.problem = "physics blow-up at t=" + describeNumber(w.time) + " s: " + problem +
+                     "; the world was put back to its last good state";
+    return result;
+  }
+  const double dt = spec_.physics.step;
+  const double left_rate = w.wheelRate(w.left_wheel), right_rate = w.wheelRate(w.right_wheel);
+  w.left_angle += left_rate * dt;
+  w.right_angle += right_rate * dt;
+  const double r = spec_.robot.wheel_radius;
+  const double v = r * (left_rate + right_rate) / 2;
+  const double omega = r * (right_rate - left_rate) / spec_.robot.wheel_separation;
+  Odometry& o = w.odometry;
+  o.x += v * std::cos(o.yaw + omega * dt / 2) * dt;
+  o.y += v * std::sin(o.yaw + omega * dt / 2) * dt;
+  o.yaw = std::remainder(o.yaw + omega * dt, 2 * M_PI);
+  o.linear = v;
+  o.angular = omega;
+  w.time += dt;
+  ++w.steps;
+  w.saveGoodState();
+  return result;
+}
+
+void PhysicsWorld::setWheelSpeeds(double left, double right) {
+  requireFinite("left wheel speed", left);
+  requireFinite("right wheel speed", right);
+  const double max = spec_.robot.max_wheel_speed;
+  impl_->left_command = std::clamp(left, -max, max);
+  impl_->right_command = std::clamp(right, -max, max);
+}
+
+void PhysicsWorld::setVelocity(double linear, double angular) {
+  requireFinite("linear velocity", linear);
+  requireFinite("angular velocity", angular);
+  const double half = spec_.robot.wheel_separation / 2;
+  setWheelSpeeds(linear - angular * half, linear + angular * half);
+}
+
+void PhysicsWorld::setPose(const std::string& body, const Eigen::Isometry3d& pose) {
+  requireKnownName("body", body, spec_.bodyNames());
+  const Eigen::Vector3d p = pose.translation();
+  const Eigen::Quaterniond q(pose.rotation());
+  requireFinite("pose.x", p.x());
+  requireFinite("pose.y", p.y());
+  requireFinite("pose.z", p.z());
+  requireUnitQuaternion("pose.orientation", q.x(), q.y(), q.z(), q.w());
+  const double hx = spec_.arena.size_x / 2, hy = spec_.arena.size_y / 2;
+  if (std::fabs(p.x()) > hx || std::fabs(p.y()) > hy || p.z() < -0.01 || p.z() > 10) {
+    throw ValidationError("pose (" + describeNumber(p.x()) + ", " + describeNumber(p.y()) + ", " +
+                          describeNumber(p.z()) + ") is outside the arena (|x| <= " + describeNumber(hx) +
+                          ", |y| <= " + describeNumber(hy) + ")");
+  }
+  Impl& w = *impl_;
+  auto place = [](dBodyID b, const Eigen::Isometry3d& t) {
+    setPoseOf(b, t);
+    dBodySetLinearVel(b, 0, 0, 0);
+    dBodySetAngularVel(b, 0, 0, 0);
+  };
+  if (body == spec_.robot.name) {
+    // Move every link rigidly with the root, keeping the wheels where they are relative to the body.
+    const Eigen::Isometry3d delta = pose * poseOf(w.robot_bodies[0]).inverse();
+    for (dBodyID b : w.robot_bodies) place(b, delta * poseOf(b));
+    w.odometry = Odometry{};
+    w.odometry.x = p.x();
+    w.odometry.y = p.y();
+    w.odometry.yaw = yawOf(pose);
+  } else {
+    for (const auto& o : w.objects) {
+      if (o.first == body) place(o.second, pose);
+    }
+  }
+  w.saveGoodState();
+}
+
+double PhysicsWorld::time() const { return impl_->time; }
+std::uint64_t PhysicsWorld::stepCount() const { return impl_->steps; }
+
+Eigen::Isometry3d PhysicsWorld::bodyPose(const std::string& body) const {
+  requireKnownName("body", body, spec_.bodyNames());
+  if (body == spec_.robot.name) return poseOf(impl_->robot_bodies[0]);
+  for (const auto& o : impl_->objects) {
+    if (o.first == body) return poseOf(o.second);
+  }
+  return Eigen::Isometry3d::Identity();
+}
+
+namespace {
+Eigen::Vector3d toVector(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
+}  // namespace
+
+Eigen::Vector3d PhysicsWorld::bodyLinearVelocity(const std::string& body) const {
+  requireKnownName("body", body, spec_.bodyNames());
+  if (body == spec_.robot.name) return toVector(dBodyGetLinearVel(impl_->robot_bodies[0]));
+  for (const auto& o : impl_->objects) {
+    if (o.first == body) return toVector(dBodyGetLinearVel(o.second));
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+Eigen::Vector3d PhysicsWorld::bodyAngularVelocity(const std::string& body) const {
+  requireKnownName("body", body, spec_.bodyNames());
+  if (body == spec_.robot.name) return toVector(dBodyGetAngularVel(impl_->robot_bodies[0]));
+  for (const auto& o : impl_->objects) {
+    if (o.first == body) return toVector(dBodyGetAngularVel(o.second));
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+FrameTransforms PhysicsWorld::dynamicTransforms() const {
+  FrameTransforms out;
+  const Impl& w = *impl_;
+  for (const auto& link : spec_.robot.links) {
+    if (link.joint_type == LinkSpec::JointType::Fixed) continue;
+    const Eigen::Isometry3d world_from_link = poseOf(w.link_body.at(link.name));
+    if (link.parent.empty()) {
+      out[link.name] = world_from_link;
+    } else {
+      const Eigen::Isometry3d world_from_parent =
+          poseOf(w.link_body.at(link.parent)) * w.body_from_link.at(link.parent);
+      out[link.name] = world_from_parent.inverse() * world_from_link;
+    }
+  }
+  for (const auto& o : w.objects) out[o.first] = poseOf(o.second);
+  return out;
+}
+
+std::vector<double> PhysicsWorld::irRanges() const {
+  initOde();
+  const Impl& w = *impl_;
+  std::vector<double> ranges;
+  struct Query {
+    const Impl* world;
+    double nearest;
+  };
+  for (std::size_t i = 0; i < w.ir_rays.size(); ++i) {
+    const Eigen::Isometry3d sensor = poseOf(w.ir_mounts[i].first) * w.ir_mounts[i].second;
+    const Eigen::Vector3d origin = sensor.translation();
+    const Eigen::Vector3d direction = sensor.rotation().col(0);
+    dGeomRaySet(w.ir_rays[i], origin.x(), origin.y(), origin.z(), direction.x(), direction.y(), direction.z());
+    Query query{&w, spec_.robot.ir_range};
+    dSpaceCollide2(w.ir_rays[i], reinterpret_cast<dGeomID>(w.space), &query, [](void* data, dGeomID ray, dGeomID other) {
+      auto* q = static_cast<Query*>(data);
+      const auto* info = static_cast<const GeomInfo*>(dGeomGetData(other));
+      if (info && info->robot) return;
+      dContactGeom hit;
+      if (dCollide(ray, other, 1, &hit, sizeof(dContactGeom)) > 0) q->nearest = std::min(q->nearest, static_cast<double>(hit.depth));
+    });
+    ranges.push_back(query.nearest);
+  }
+  return ranges;
+}
+
+PhysicsWorld::Odometry PhysicsWorld::odometry() const { return impl_->odometry; }
+
+PhysicsWorld::WheelState PhysicsWorld::wheels() const {
+  WheelState s;
+  s.left_angle = impl_->left_angle;
+  s.right_angle = impl_->right_angle;
+  s.left_rate = impl_->wheelRate(impl_->left_wheel);
+  s.right_rate = impl_->wheelRate(impl_->right_wheel);
+  s.left_command = impl_->left_command;
+  s.right_command = impl_->right_command;
+  return s;
+}
+
+std::string PhysicsWorld::checkHealth() const { return impl_->health(); }
+
+void PhysicsWorld::injectFault(const std::string& body, bool explode) {
+  requireKnownName("body", body, spec_.bodyNames());
+  dBodyID b = body == spec_.robot.name ? impl_->robot_bodies[0] : nullptr;
+  for (const auto& o : impl_->objects) {
+    if (o.first == body) b = o.second;
+  }
+  const double f = explode ? 1e9 : std::numeric_limits<double>::quiet_NaN();
+  dBodyAddForce(b, f, f, 0);
+}
+
+SceneDescription PhysicsWorld::buildScene() const {
+  SceneDescription scene;
+  const ArenaSpec& a = spec_.arena;
+  SceneNode arena;
+  arena.name = "arena";
+  arena.parent = scene.world_frame;
+  Visual floor;
+  floor.shape.box_size = Eigen::Vector3d(a.size_x + 2 * a.wall_thickness, a.size_y + 2 * a.wall_thickness, 0.002);
+  floor.offset.translation() = Eigen::Vector3d(0, 0, -0.001);
+  floor.color = a.floor_color;
+  arena.visuals.push_back(floor);
+  const double t = a.wall_thickness, h = a.wall_height;
+  const double hx = a.size_x / 2 + t / 2, hy = a.size_y / 2 + t / 2;
+  const double walls[4][4] = {{hx, 0, t, a.size_y + 2 * t}, {-hx, 0, t, a.size_y + 2 * t}, {0, hy, a.size_x, t}, {0, -hy, a.size_x, t}};
+  for (const auto& w : walls) {
+    Visual wall;
+    wall.shape.box_size = Eigen::Vector3d(w[2], w[3], h);
+    wall.offset.translation() = Eigen::Vector3d(w[0], w[1], h / 2);
+    wall.color = a.wall_color;
+    arena.visuals.push_back(wall);
+  }
+  scene.nodes.push_back(arena);
+
+  const FrameTransforms now = dynamicTransforms();
+  for (const auto& link : spec_.robot.links) {
+    SceneNode node;
+    node.name = link.name;
+    node.parent = link.parent.empty() ? scene.world_frame : link.parent;
+    node.dynamic = link.joint_type != LinkSpec::JointType::Fixed;
+    node.parent_from_node = node.dynamic ? now.at(link.name) : link.parent_from_link;
+    node.visuals = link.visuals;
+    scene.nodes.push_back(node);
+  }
+  for (std::size_t i = 0; i < spec_.objects.size(); ++i) {
+    const ObjectSpec& o = spec_.objects[i];
+    SceneNode node;
+    node.name = o.name;
+    node.parent = scene.world_frame;
+    node.dynamic = true;
+    node.parent_from_node = now.at(o.name);
+    Visual v;
+    v.shape = o.shape;
+    v.color = o.color;
+    node.visuals.push_back(v);
+    scene.nodes.push_back(node);
+  }
+  for (const auto& c : spec_.cameras) {
+    SceneNode node;
+    node.name = c.model.frame;
+    node.parent = c.parent;
+    node.parent_from_node = c.parent_from_optical;
+    scene.nodes.push_back(node);
+    scene.cameras.push_back(c.model);
+  }
+  return scene;
+}
+
+}  // namespace xpersif::core

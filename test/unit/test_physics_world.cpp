@@ -1,0 +1,162 @@
+// XPERSim's physics without ROS: stability, driving, pushing, IR, determinism, blow-up recovery, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "xpersif/core/physics_world.h"
+#include "xpersif/core/validation.h"
+
+using namespace xpersif::core;
+
+namespace {
+
+WorldSpec defaultWorld() { return loadWorldFile(std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml"); }
+
+void run(PhysicsWorld& world, double seconds) {
+  const int steps = static_cast<int>(std::lround(seconds / world.spec().physics.step));
+  for (int i = 0; i < steps; ++i) ASSERT_TRUE(world.step().ok);
+}
+
+Eigen::Isometry3d planar(double x, double y, double yaw, double z = 0.018) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(x, y, z);
+  t.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return t;
+}
+
+}  // namespace
+
+TEST(PhysicsWorld, BuildsTheSceneWithDynamicAndFixedNodes) {
+  PhysicsWorld world(defaultWorld());
+  const SceneDescription& scene = world.scene();
+  int dynamic = 0;
+  for (const auto& n : scene.nodes) dynamic += n.dynamic ? 1 : 0;
+  EXPECT_EQ(dynamic, 7) << "base, two wheels and four cubes move on their own";
+  EXPECT_GE(scene.nodes.size(), 15u) << "about 15 scene nodes for robot and cubes, as in the paper";
+  ASSERT_NE(scene.findNode("overhead_optical"), nullptr);
+  EXPECT_EQ(scene.findNode("robot_camera_optical")->parent, "camera_link");
+  EXPECT_EQ(world.dynamicTransforms().size(), 7u);
+  EXPECT_NO_THROW(worldTransforms(scene, world.dynamicTransforms()));
+}
+
+TEST(PhysicsWorld, RestsStablyWhenNothingIsCommanded) {
+  PhysicsWorld world(defaultWorld());
+  const Eigen::Isometry3d robot0 = world.bodyPose("khepera"), cube0 = world.bodyPose("red_cube");
+  run(world, 2.0);
+  EXPECT_LT((world.bodyPose("khepera").translation() - robot0.translation()).norm(), 0.002);
+  EXPECT_LT((world.bodyPose("red_cube").translation() - cube0.translation()).norm(), 0.001);
+  EXPECT_NEAR(world.time(), 2.0, 1e-9);
+  EXPECT_EQ(world.stepCount(), 2000u);
+  EXPECT_EQ(world.checkHealth(), "");
+}
+
+TEST(PhysicsWorld, DrivesStraightAndTurnsAndOdometryFollows) {
+  PhysicsWorld world(defaultWorld());
+  const Eigen::Vector3d start = world.bodyPose("khepera").translation();
+  world.setVelocity(0.1, 0.0);
+  run(world, 1.0);
+  const Eigen::Vector3d moved = world.bodyPose("khepera").translation() - start;
+  EXPECT_NEAR(moved.x(), 0.1, 0.02);
+  EXPECT_NEAR(moved.y(), 0.0, 0.005);
+  const auto odom = world.odometry();
+  EXPECT_NEAR(odom.x, world.bodyPose("khepera").translation().x(), 0.01);
+  EXPECT_NEAR(odom.linear, 0.1, 0.01);
+
+  world.setVelocity(0.0, 1.0);
+  const double yaw0 = yawOf(world.bodyPose("khepera"));
+  run(world, 1.0);
+  EXPECT_NEAR(yawOf(world.bodyPose("khepera")) - yaw0, 1.0, 0.2);
+  EXPECT_NEAR(world.odometry().yaw, yawOf(world.bodyPose("khepera")), 0.1);
+}
+
+TEST(PhysicsWorld, PushMovesALightCubeButNotTheHeavyOne) {
+  PhysicsWorld world(defaultWorld());
+  // Red cube (20 g) at (0.05, 0.15): start 8 cm behind it, facing +x, and drive into it.
+  world.setPose("khepera", planar(-0.03, 0.15, 0.0));
+  const Eigen::Vector3d red0 = world.bodyPose("red_cube").translation();
+  world.setVelocity(0.08, 0.0);
+  run(world, 2.0);
+  const Eigen::Vector3d red_moved = world.bodyPose("red_cube").translation() - red0;
+  EXPECT_GT(red_moved.x(), 0.05) << "the light cube is pushed along +x";
+  EXPECT_LT(std::fabs(red_moved.y()), 0.03);
+
+  // Blue cube (2 kg) at (0.25, 0): the robot's wheels slip, the cube stays.
+  world.setPose("khepera", planar(0.17, 0.0, 0.0));
+  const Eigen::Vector3d blue0 = world.bodyPose("blue_cube").translation();
+  run(world, 2.0);
+  EXPECT_LT((world.bodyPose("blue_cube").translation() - blue0).norm(), 0.002) << "the heavy cube does not move";
+}
+
+TEST(PhysicsWorld, IrSensorsSeeANearbyWall) {
+  PhysicsWorld world(defaultWorld());
+  // Wall at x = 0.45; the body's front is 3.5 cm ahead of its centre.
+  world.setPose("khepera", planar(0.45 - 0.035 - 0.03, -0.2, 0.0));
+  run(world, 0.05);
+  const auto ranges = world.irRanges();
+  ASSERT_EQ(ranges.size(), 8u);
+  EXPECT_NEAR(ranges[2], 0.03, 0.004) << "front sensors (+-10 deg) see the wall 3 cm away";
+  EXPECT_NEAR(ranges[3], 0.03, 0.004);
+  EXPECT_DOUBLE_EQ(ranges[6], 0.06) << "rear sensors see nothing within range";
+}
+
+TEST(PhysicsWorld, SameSeedAndCommandsGiveBitIdenticalTrajectories) {
+  PhysicsWorld a(defaultWorld()), b(defaultWorld());
+  for (int i = 0; i < 3000; ++i) {
+    // Interleaved stepping: each world keeps its own solver seed.
+    const double turn = std::sin(i * 0.003);
+    a.setVelocity(0.1, turn);
+    b.setVelocity(0.1, turn);
+    ASSERT_TRUE(a.step().ok);
+    ASSERT_TRUE(b.step().ok);
+  }
+  for (const auto& name : a.spec().bodyNames()) {
+    const Eigen::Isometry3d pa = a.bodyPose(name), pb = b.bodyPose(name);
+    EXPECT_EQ(std::memcmp(pa.data(), pb.data(), sizeof(double) * 16), 0) << name;
+  }
+  // After a reset the world replays the same trajectory.
+  const Eigen::Isometry3d first = a.bodyPose("khepera");
+  a.reset();
+  for (int i = 0; i < 3000; ++i) {
+    a.setVelocity(0.1, std::sin(i * 0.003));
+    ASSERT_TRUE(a.step().ok);
+  }
+  EXPECT_EQ(std::memcmp(a.bodyPose("khepera").data(), first.data(), sizeof(double) * 16), 0);
+}
+
+TEST(PhysicsWorld, BlowUpIsCaughtInItsStepAndTheWorldRestored) {
+  PhysicsWorld world(defaultWorld());
+  run(world, 0.1);
+  const Eigen::Isometry3d before = world.bodyPose("green_cube");
+  const double t = world.time();
+  world.injectFault("green_cube");  // a NaN force
+  const auto result = world.step();
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.problem.find("green_cube has a non-finite"), std::string::npos) << result.problem;
+  EXPECT_EQ(world.checkHealth(), "");
+  EXPECT_TRUE(world.bodyPose("green_cube").isApprox(before));
+  EXPECT_DOUBLE_EQ(world.time(), t) << "the failed step is undone";
+
+  world.injectFault("khepera", true);  // an absurd force: too fast
+  const auto exploded = world.step();
+  EXPECT_FALSE(exploded.ok);
+  EXPECT_NE(exploded.problem.find("faster than physics.max_speed"), std::string::npos) << exploded.problem;
+  run(world, 0.1);  // and the world goes on
+}
+
+TEST(PhysicsWorld, BadInputIsRefusedAndChangesNothing) {
+  PhysicsWorld world(defaultWorld());
+  const Eigen::Isometry3d red = world.bodyPose("red_cube");
+  EXPECT_THROW(world.setPose("purple_cube", planar(0, 0, 0)), ValidationError);
+  EXPECT_THROW(world.setPose("red_cube", planar(NAN, 0, 0)), ValidationError);
+  EXPECT_THROW(world.setPose("red_cube", planar(3.0, 0, 0)), ValidationError);
+  Eigen::Isometry3d skewed = planar(0, 0, 0);
+  skewed.linear() *= 2.0;
+  EXPECT_THROW(world.setPose("red_cube", skewed), ValidationError);
+  EXPECT_TRUE(world.bodyPose("red_cube").isApprox(red));
+  EXPECT_THROW(world.setVelocity(INFINITY, 0), ValidationError);
+  EXPECT_THROW(world.bodyPose("nobody"), ValidationError);
+  world.setWheelSpeeds(100, -100);
+  EXPECT_DOUBLE_EQ(world.wheels().left_command, 0.5) << "wheel speeds are clamped to max_wheel_speed";
+  EXPECT_DOUBLE_EQ(world.wheels().right_command, -0.5);
+}
