@@ -226,6 +226,7 @@ RobotSpec parseRobotUrdf(const std::string& urdf_xml, const std::string& source)
   if (!model) throw WorldError(source + " is not a valid URDF (see the parser's message above)");
   RobotSpec robot;
   robot.name = model->getName();
+  robot.urdf = urdf_xml;
   addLink(*model, model->getRoot(), robot, source);
   return robot;
 }

@@ -57,6 +57,7 @@ struct LinkSpec {
 
 struct RobotSpec {
   std::string name;
+  std::string urdf;  ///< the URDF text (for robot_description)
   std::vector<LinkSpec> links;  ///< parents before children; links[0] is the root
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< world_from_root at the start (z is filled in)
   std::string left_wheel_joint, right_wheel_joint;

@@ -1,0 +1,82 @@
+/**
+ * @file xpersim.h
+ * @brief XPERSim, the simulator, as a component: an ODE world (core::PhysicsWorld) stepped at a fixed
+ *        rate in its own thread, published as tf so that every client renders the scene itself.
+ *
+ * Parameters (read on configure):
+ *  - `~world` (path to a world file; required), `~clock_mode` (`realtime` | `fast` | `lockstep`),
+ *    `~real_time_factor` (realtime mode, default 1), `~start_paused` (default false),
+ *    `~tf_rate` (Hz of simulated time for /tf and /clock, default 1000), `~sensor_rate` (Hz, default 50),
+ *    `~allow_fault_injection` (default false; advertises `~inject_fault` for tests).
+ *
+ * Publishes: /clock, /tf (dynamic nodes, one TFMessage per frame), /tf_static (latched), `~scene`
+ * (latched), `~markers` (latched, frame-locked, arena and objects), `~ground_truth`, and the robot's
+ * driver topics `odom`, `ir`, `joint_states`; sets `robot_description`. Subscribes `cmd_vel` and
+ * `wheel_speeds`. Operations: `~pause`, `~resume`, `~step`, `~reset`, `~set_pose`, `~get_scene`.
+ */
+#pragma once
+
+#include <ros/ros.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "xpersif/component/component.h"
+#include "xpersif/core/physics_world.h"
+
+namespace xpersif {
+
+class XPerSim : public Component {
+ public:
+  XPerSim(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~XPerSim() override;
+
+  enum class ClockMode { RealTime, Fast, Lockstep };
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+  void fillStatus(ComponentStatus& status) override;
+
+ private:
+  void declareOperations();
+  void stopThread();
+  void loop();
+  /// One physics step and whatever is due to be published. Call with world_mutex_ held.
+  void stepLocked();
+  void publishFrameLocked();
+  void publishSensorsLocked();
+  void publishDescriptionLocked();
+
+  // World and its settings; guarded by world_mutex_.
+  std::mutex world_mutex_;
+  std::unique_ptr<core::PhysicsWorld> world_;
+  ClockMode mode_ = ClockMode::RealTime;
+  double real_time_factor_ = 1.0;
+  double tf_period_ = 0.001, sensor_period_ = 0.02;
+  double next_frame_ = 0, next_sensors_ = 0;
+  bool allow_fault_injection_ = false;
+  std::string last_problem_;
+  double last_problem_wall_ = -1e9;
+  std::uint64_t blow_ups_ = 0;
+
+  std::atomic<bool> running_{false};
+  std::atomic<bool> paused_{false};
+  std::atomic<bool> restart_pacing_{true};
+  std::mutex wake_mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+
+  // ROS handles last (destroyed first).
+  ros::Publisher clock_pub_, tf_pub_, tf_static_pub_, scene_pub_, markers_pub_, ground_truth_pub_, odom_pub_,
+      ir_pub_, joints_pub_;
+  ros::Subscriber cmd_vel_sub_, wheel_speeds_sub_;
+};
+
+}  // namespace xpersif

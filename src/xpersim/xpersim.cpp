@@ -1,0 +1,453 @@
+#include "xpersif/xpersim/xpersim.h"
+
+#include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/JointState.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_msgs/TFMessage.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <chrono>
+#include <set>
+
+#include "xpersif/BodyPoses.h"
+#include "xpersif/GetScene.h"
+#include "xpersif/InjectFault.h"
+#include "xpersif/IrRanges.h"
+#include "xpersif/Scene.h"
+#include "xpersif/SetPose.h"
+#include "xpersif/Step.h"
+#include "xpersif/WheelSpeeds.h"
+#include "xpersif/component/message_checks.h"
+#include "xpersif/ros/conversions.h"
+
+namespace xpersif {
+
+namespace {
+
+constexpr std::int64_t kMaxStepsPerCall = 100000;
+
+core::Contract operation(const std::string& name, const std::string& type, const std::string& description,
+                         std::vector<std::string> effects = {}) {
+  core::Contract c;
+  c.name = name;
+  c.interface_type = type;
+  c.description = description;
+  c.effects = std::move(effects);
+  return c;
+}
+
+geometry_msgs::Twist toTwist(const Eigen::Vector3d& linear, const Eigen::Vector3d& angular) {
+  geometry_msgs::Twist t;
+  t.linear.x = linear.x();
+  t.linear.y = linear.y();
+  t.linear.z = linear.z();
+  t.angular.x = angular.x();
+  t.angular.y = angular.y();
+  t.angular.z = angular.z();
+  return t;
+}
+
+const char* toString(XPerSim::ClockMode mode) {
+  switch (mode) {
+    case XPerSim::ClockMode::RealTime: return "realtime";
+    case XPerSim::ClockMode::Fast: return "fast";
+    case XPerSim::ClockMode::Lockstep: return "lockstep";
+  }
+  return "?";
+}
+
+}  // namespace
+
+XPerSim::XPerSim(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/XPerSimNodelet") {
+  privateNodeHandle().param("allow_fault_injection", allow_fault_injection_, false);
+  declareOperations();
+}
+
+XPerSim::~XPerSim() { stopThread(); }
+
+void XPerSim::declareOperations() {
+  using Trigger = std_srvs::Trigger;
+  addOperation<Trigger>(ContractChecker<Trigger::Request>(operation("pause", "std_srvs/Trigger",
+                                                                    "stop advancing simulated time", {"paused(sim)"})),
+                        nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
+                          paused_ = true;
+                          response.message = "paused";
+                        });
+
+  core::Contract resume = operation("resume", "std_srvs/Trigger", "advance simulated time again", {"not paused(sim)"});
+  resume.preconditions = {{"free_running(sim)", "the clock mode is realtime or fast, not lockstep"}};
+  ContractChecker<Trigger::Request> resume_contract(resume);
+  resume_contract.check("free_running(sim)", [this](const Trigger::Request&) -> std::string {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    return mode_ == ClockMode::Lockstep ? "in lockstep mode time advances only through ~step" : "";
+  });
+  addOperation<Trigger>(resume_contract, nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
+    restart_pacing_ = true;
+    paused_ = false;
+    wake_.notify_all();
+    response.message = "running";
+  });
+
+  addOperation<Step>(
+      ContractChecker<Step::Request>(operation("step", "xpersif/Step", "pause, then advance a number of physics steps",
+                                               {"paused(sim)"})),
+      [](const Step::Request& request) {
+        if (request.steps < 1 || request.steps > kMaxStepsPerCall) {
+          throw core::ValidationError("steps is " + std::to_string(request.steps) + "; it must lie in 1.." +
+                                      std::to_string(kMaxStepsPerCall));
+        }
+      },
+      [this](const Step::Request& request, Step::Response& response) {
+        paused_ = true;
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        for (std::int64_t i = 0; i < request.steps; ++i) stepLocked();
+        response.time = world_->time();
+      });
+
+  addOperation<Trigger>(ContractChecker<Trigger::Request>(operation(
+                            "reset", "std_srvs/Trigger", "put the world back to its initial state", {"reset(sim)"})),
+                        nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
+                          std::lock_guard<std::mutex> lock(world_mutex_);
+                          world_->reset();
+                          next_frame_ = next_sensors_ = 0;
+                          restart_pacing_ = true;
+                          publishFrameLocked();
+                          publishSensorsLocked();
+                          response.message = "reset to t=0";
+                        });
+
+  core::Contract set_pose = operation("set_pose", "xpersif/SetPose", "place the robot or an object",
+                                      {"at(?name, ?pose)"});
+  set_pose.parameters = {"?name", "?pose"};
+  ContractChecker<SetPose::Request> set_pose_contract(set_pose);
+  set_pose_contract.bind([](const SetPose::Request& r) {
+    return core::Bindings{{"?name", r.name},
+                          {"?pose", core::describeNumber(r.pose.position.x) + "_" + core::describeNumber(r.pose.position.y)}};
+  });
+  addOperation<SetPose>(
+      set_pose_contract,
+      [this](const SetPose::Request& request) {
+        core::requireMaxLength("name", request.name, 128);
+        core::throwIfInvalid(checkPose("pose", request.pose));
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        core::requireKnownName("name", request.name, world_->spec().bodyNames());
+      },
+      [this](const SetPose::Request& request, SetPose::Response& response) {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        world_->setPose(request.name, fromPoseMsg(request.pose));  // checks the arena bounds
+        publishFrameLocked();
+        publishSensorsLocked();
+        response.message = request.name + " placed";
+      });
+
+  addOperation<GetScene>(
+      ContractChecker<GetScene::Request>(operation("get_scene", "xpersif/GetScene",
+                                                   "the scene description clients render from")),
+      nullptr,
+      [this](const GetScene::Request&, GetScene::Response& response) {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        if (!world_) throw std::runtime_error("no world yet: configure the simulator first");
+        response.scene = toSceneMsg(world_->scene());
+      },
+      false);
+
+  if (allow_fault_injection_) {
+    addOperation<InjectFault>(
+        ContractChecker<InjectFault::Request>(operation("inject_fault", "xpersif/InjectFault",
+                                                        "test hook: a non-finite or huge force on a body")),
+        [this](const InjectFault::Request& request) {
+          std::lock_guard<std::mutex> lock(world_mutex_);
+          core::requireKnownName("name", request.name, world_->spec().bodyNames());
+        },
+        [this](const InjectFault::Request& request, InjectFault::Response&) {
+          std::lock_guard<std::mutex> lock(world_mutex_);
+          world_->injectFault(request.name, request.explode);
+        });
+  }
+}
+
+void XPerSim::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  std::string world_file, mode = "realtime";
+  double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0;
+  bool start_paused = false;
+  if (!pnh.getParam("world", world_file)) throw std::runtime_error("~world is not set; give the path of a world file");
+  pnh.param("clock_mode", mode, mode);
+  pnh.param("real_time_factor", real_time_factor, real_time_factor);
+  pnh.param("tf_rate", tf_rate, tf_rate);
+  pnh.param("sensor_rate", sensor_rate, sensor_rate);
+  pnh.param("start_paused", start_paused, start_paused);
+  core::requireOneOf("~clock_mode", mode, {"realtime", "fast", "lockstep"});
+  core::requireInRange("~real_time_factor", real_time_factor, 0.01, 100.0);
+  core::requireInRange("~tf_rate", tf_rate, 1.0, 10000.0);
+  core::requireInRange("~sensor_rate", sensor_rate, 0.1, 1000.0);
+  // Built completely before it replaces anything: a bad world file leaves the old world running.
+  auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(world_file));
+
+  stopThread();
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  world_ = std::move(world);
+  mode_ = mode == "fast" ? ClockMode::Fast : mode == "lockstep" ? ClockMode::Lockstep : ClockMode::RealTime;
+  real_time_factor_ = real_time_factor;
+  tf_period_ = 1.0 / tf_rate;
+  sensor_period_ = 1.0 / sensor_rate;
+  next_frame_ = next_sensors_ = 0;
+  paused_ = start_paused;
+
+  ros::NodeHandle& nh = nodeHandle();
+  if (!clock_pub_) {
+    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+    tf_static_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
+    scene_pub_ = pnh.advertise<Scene>("scene", 1, true);
+    markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+    ground_truth_pub_ = pnh.advertise<BodyPoses>("ground_truth", 10);
+    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
+    ir_pub_ = nh.advertise<IrRanges>("ir", 10);
+    joints_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
+    const auto hints = ros::TransportHints().tcpNoDelay();
+    cmd_vel_sub_ = nh.subscribe<geometry_msgs::Twist>(
+        "cmd_vel", 10,
+        [this](const geometry_msgs::Twist::ConstPtr& twist) {
+          std::string why = checkVector3("cmd_vel.linear", twist->linear);
+          if (why.empty()) why = checkVector3("cmd_vel.angular", twist->angular);
+          if (why.empty()) {
+            std::lock_guard<std::mutex> lock(world_mutex_);
+            if (world_) world_->setVelocity(twist->linear.x, twist->angular.z);
+            return;
+          }
+          ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << why << "; the last command stays");
+          events().publish(events().make(ComponentEvent::OPERATION, "cmd_vel", "refused", why));
+        },
+        ros::VoidConstPtr(), hints);
+    wheel_speeds_sub_ = nh.subscribe<WheelSpeeds>(
+        "wheel_speeds", 10,
+        [this](const WheelSpeeds::ConstPtr& speeds) {
+          try {
+            std::lock_guard<std::mutex> lock(world_mutex_);
+            if (world_) world_->setWheelSpeeds(speeds->left, speeds->right);
+          } catch (const core::ValidationError& e) {
+            ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << e.what() << "; the last command stays");
+            events().publish(events().make(ComponentEvent::OPERATION, "wheel_speeds", "refused", e.what()));
+          }
+        },
+        ros::VoidConstPtr(), hints);
+  }
+  publishDescriptionLocked();
+  publishFrameLocked();
+  publishSensorsLocked();
+}
+
+void XPerSim::publishDescriptionLocked() {
+  const core::SceneDescription& scene = world_->scene();
+  Scene scene_msg = toSceneMsg(scene);
+  scene_msg.header.stamp = ros::Time(world_->time());
+  scene_pub_.publish(scene_msg);
+
+  tf2_msgs::TFMessage fixed;
+  visualization_msgs::MarkerArray markers;
+  std::set<std::string> robot_links;
+  for (const auto& link : world_->spec().robot.links) robot_links.insert(link.name);
+  int id = 0;
+  for (const auto& node : scene.nodes) {
+    if (!node.dynamic) {
+      geometry_msgs::TransformStamped t;
+      t.header.frame_id = node.parent;
+      t.child_frame_id = node.name;
+      t.transform = toTransformMsg(node.parent_from_node);
+      fixed.transforms.push_back(t);
+    }
+    if (robot_links.count(node.name)) continue;  // the robot is drawn from robot_description
+    for (const auto& v : node.visuals) {
+      visualization_msgs::Marker m;
+      m.header.frame_id = node.name;
+      m.ns = node.name;
+      m.id = id++;
+      m.frame_locked = true;  // rviz moves it with its tf frame: only tf flows per frame
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose = toPoseMsg(v.offset);
+      m.color.r = v.color.r;
+      m.color.g = v.color.g;
+      m.color.b = v.color.b;
+      m.color.a = v.color.a;
+      switch (v.shape.type) {
+        case core::Shape::Type::Box:
+          m.type = visualization_msgs::Marker::CUBE;
+          m.scale.x = v.shape.box_size.x();
+          m.scale.y = v.shape.box_size.y();
+          m.scale.z = v.shape.box_size.z();
+          break;
+        case core::Shape::Type::Cylinder:
+          m.type = visualization_msgs::Marker::CYLINDER;
+          m.scale.x = m.scale.y = 2 * v.shape.radius;
+          m.scale.z = v.shape.length;
+          break;
+        case core::Shape::Type::Sphere:
+          m.type = visualization_msgs::Marker::SPHERE;
+          m.scale.x = m.scale.y = m.scale.z = 2 * v.shape.radius;
+          break;
+      }
+      markers.markers.push_back(m);
+    }
+  }
+  tf_static_pub_.publish(fixed);
+  markers_pub_.publish(markers);
+  ros::param::set("robot_description", world_->spec().robot.urdf);
+}
+
+void XPerSim::publishFrameLocked() {
+  const ros::Time stamp(world_->time());
+  rosgraph_msgs::Clock clock;
+  clock.clock = stamp;
+  clock_pub_.publish(clock);
+  tf2_msgs::TFMessage frame;
+  const core::FrameTransforms transforms = world_->dynamicTransforms();
+  frame.transforms.reserve(transforms.size());
+  for (const auto& node : world_->scene().nodes) {
+    if (!node.dynamic) continue;
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = stamp;
+    t.header.frame_id = node.parent;
+    t.child_frame_id = node.name;
+    t.transform = toTransformMsg(transforms.at(node.name));
+    frame.transforms.push_back(t);
+  }
+  tf_pub_.publish(frame);
+}
+
+void XPerSim::publishSensorsLocked() {
+  const ros::Time stamp(world_->time());
+  const core::WorldSpec& spec = world_->spec();
+
+  BodyPoses truth;
+  truth.header.stamp = stamp;
+  truth.header.frame_id = world_->scene().world_frame;
+  for (const auto& body : spec.bodyNames()) {
+    truth.names.push_back(body);
+    truth.poses.push_back(toPoseMsg(world_->bodyPose(body)));
+    truth.velocities.push_back(toTwist(world_->bodyLinearVelocity(body), world_->bodyAngularVelocity(body)));
+  }
+  ground_truth_pub_.publish(truth);
+
+  const auto odometry = world_->odometry();
+  nav_msgs::Odometry odom;
+  odom.header.stamp = stamp;
+  odom.header.frame_id = "odom";
+  odom.child_frame_id = spec.robot.links[0].name;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(odometry.x, odometry.y, 0);
+  pose.linear() = Eigen::AngleAxisd(odometry.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  odom.pose.pose = toPoseMsg(pose);
+  odom.twist.twist.linear.x = odometry.linear;
+  odom.twist.twist.angular.z = odometry.angular;
+  odom_pub_.publish(odom);
+
+  IrRanges ir;
+  ir.header.stamp = stamp;
+  ir.frames = spec.robot.ir_sensors;
+  ir.max_range = static_cast<float>(spec.robot.ir_range);
+  for (double r : world_->irRanges()) ir.ranges.push_back(static_cast<float>(r));
+  ir_pub_.publish(ir);
+
+  const auto wheels = world_->wheels();
+  sensor_msgs::JointState joints;
+  joints.header.stamp = stamp;
+  joints.name = {spec.robot.left_wheel_joint, spec.robot.right_wheel_joint};
+  joints.position = {wheels.left_angle, wheels.right_angle};
+  joints.velocity = {wheels.left_rate, wheels.right_rate};
+  joints_pub_.publish(joints);
+}
+
+void XPerSim::stepLocked() {
+  const core::PhysicsWorld::StepResult result = world_->step();
+  if (!result.ok) {
+    ++blow_ups_;
+    last_problem_ = result.problem;
+    last_problem_wall_ = ros::WallTime::now().toSec();
+    ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": " << result.problem);
+    events().publish(events().make(ComponentEvent::OPERATION, "physics", "recovered", result.problem));
+    return;
+  }
+  const double t = world_->time() + 1e-9;
+  if (t >= next_frame_) {
+    publishFrameLocked();
+    next_frame_ += tf_period_;
+    if (next_frame_ < t) next_frame_ = t + tf_period_;
+  }
+  if (t >= next_sensors_) {
+    publishSensorsLocked();
+    next_sensors_ += sensor_period_;
+    if (next_sensors_ < t) next_sensors_ = t + sensor_period_;
+  }
+}
+
+void XPerSim::onActivate() {
+  running_ = true;
+  restart_pacing_ = true;
+  thread_ = std::thread([this] { loop(); });
+}
+
+void XPerSim::onDeactivate() { stopThread(); }
+
+void XPerSim::onShutdown() { stopThread(); }
+
+void XPerSim::stopThread() {
+  running_ = false;
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void XPerSim::loop() {
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point wall_anchor;
+  double sim_anchor = 0;
+  while (running_ && ros::ok()) {
+    if (paused_ || mode_ == ClockMode::Lockstep) {
+      std::unique_lock<std::mutex> lock(wake_mutex_);
+      wake_.wait_for(lock, std::chrono::milliseconds(20));
+      restart_pacing_ = true;
+      continue;
+    }
+    double sim_time;
+    {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      if (restart_pacing_) {
+        wall_anchor = Clock::now();
+        sim_anchor = world_->time();
+        restart_pacing_ = false;
+      }
+      stepLocked();
+      sim_time = world_->time();
+    }
+    if (mode_ == ClockMode::RealTime) {
+      // Pace simulated time against the wall clock from the last anchor, so pauses and resets don't
+      // make it race to catch up.
+      const auto due = wall_anchor + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>((sim_time - sim_anchor) / real_time_factor_));
+      std::this_thread::sleep_until(due);
+    }
+  }
+}
+
+void XPerSim::fillStatus(ComponentStatus& status) {
+  PartStatus physics;
+  physics.name = "physics";
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (!world_) return;
+  physics.state = status.state;
+  physics.state_name = status.state_name;
+  physics.message = std::string(toString(mode_)) + (paused_ ? ", paused" : "") + ", t=" +
+                    core::describeNumber(world_->time()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered";
+  // A recent blow-up is worth a warning for a while, with what happened.
+  if (ros::WallTime::now().toSec() - last_problem_wall_ < 5.0) {
+    physics.health = ComponentStatus::HEALTH_WARN;
+    physics.message += "; last: " + last_problem_;
+    if (status.health == ComponentStatus::HEALTH_OK) status.health = ComponentStatus::HEALTH_WARN;
+  }
+  status.parts.push_back(physics);
+}
+
+}  // namespace xpersif
