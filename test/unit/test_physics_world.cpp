@@ -47,7 +47,7 @@ TEST(PhysicsWorld, RestsStablyWhenNothingIsCommanded) {
   EXPECT_LT((world.bodyPose("khepera").translation() - robot0.translation()).norm(), 0.002);
   EXPECT_LT((world.bodyPose("red_cube").translation() - cube0.translation()).norm(), 0.001);
   EXPECT_NEAR(world.time(), 2.0, 1e-9);
-  EXPECT_EQ(world.stepCount(), 2000u);
+  EXPECT_EQ(world.stepCount(), 1000u);
   EXPECT_EQ(world.checkHealth(), "");
 }
 

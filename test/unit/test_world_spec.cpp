@@ -23,7 +23,7 @@ const std::string kRobot = "robot: {urdf: ../urdf/khepera.urdf}\n";
 TEST(WorldSpec, DefaultWorldLoads) {
   const WorldSpec w = loadWorldFile(kWorlds + "/default.yaml");
   EXPECT_EQ(w.name, "default");
-  EXPECT_DOUBLE_EQ(w.physics.step, 0.001);
+  EXPECT_DOUBLE_EQ(w.physics.step, 0.002);
   EXPECT_EQ(w.robot.name, "khepera");
   EXPECT_EQ(w.robot.links[0].name, "base_link");
   EXPECT_NEAR(w.robot.wheel_radius, 0.0075, 1e-12);
