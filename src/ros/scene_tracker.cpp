@@ -1,0 +1,109 @@
+#include "xpersif/ros/scene_tracker.h"
+
+#include <stdexcept>
+
+#include "xpersif/GetScene.h"
+#include "xpersif/component/message_checks.h"
+#include "xpersif/ros/conversions.h"
+
+namespace xpersif {
+
+SceneTracker::SceneTracker(ros::NodeHandle& nh) : nh_(nh) {
+  tf_sub_ = nh_.subscribe<tf2_msgs::TFMessage>("/tf", 100, &SceneTracker::onTf, this, ros::TransportHints().tcpNoDelay());
+}
+
+void SceneTracker::fetch(const std::string& get_scene_service, double timeout) {
+  if (!ros::service::waitForService(get_scene_service, ros::Duration(timeout))) {
+    throw std::runtime_error("no scene: " + get_scene_service + " did not appear within " +
+                             core::describeNumber(timeout) + " s (is xpersim running?)");
+  }
+  GetScene call;
+  if (!ros::service::call(get_scene_service, call) || !call.response.success) {
+    throw std::runtime_error("no scene from " + get_scene_service + ": " + call.response.message);
+  }
+  setScene(call.response.scene);
+}
+
+void SceneTracker::follow(const std::string& scene_topic, std::function<void()> on_scene) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    on_scene_ = std::move(on_scene);
+  }
+  scene_sub_ = nh_.subscribe<xpersif::Scene>(scene_topic, 1, [this](const xpersif::Scene::ConstPtr& message) {
+    try {
+      setScene(*message);
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM("scene from " << scene_sub_.getTopic() << " ignored: " << e.what());
+      return;
+    }
+    std::function<void()> callback;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      callback = on_scene_;
+    }
+    if (callback) callback();
+  });
+}
+
+void SceneTracker::setScene(const xpersif::Scene& message) {
+  core::SceneDescription scene = fromSceneMsg(message);
+  core::worldTransforms(scene);  // throws if the node tree is broken
+  std::lock_guard<std::mutex> lock(mutex_);
+  scene_ = std::move(scene);
+  current_.clear();
+  has_scene_ = true;
+}
+
+bool SceneTracker::hasScene() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return has_scene_;
+}
+
+core::SceneDescription SceneTracker::scene() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return scene_;
+}
+
+void SceneTracker::onFrame(std::function<void()> callback) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  on_frame_ = std::move(callback);
+}
+
+void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
+  std::function<void()> callback;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& t : message->transforms) {
+      // A client never renders from a non-finite transform, whoever sent it.
+      if (!checkVector3("transform", t.transform.translation).empty() ||
+          !checkQuaternion("rotation", t.transform.rotation).empty()) {
+        continue;
+      }
+      const core::SceneNode* node = scene_.findNode(t.child_frame_id);
+      if (!node || !node->dynamic) continue;
+      current_[t.child_frame_id] = fromTransformMsg(t.transform);
+      if (t.header.stamp > latest_) latest_ = t.header.stamp;
+    }
+    ++frames_;
+    callback = on_frame_;
+  }
+  if (callback) callback();
+}
+
+core::FrameTransforms SceneTracker::worldTransforms() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!has_scene_) return {};
+  return core::worldTransforms(scene_, current_);
+}
+
+ros::Time SceneTracker::latestStamp() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return latest_;
+}
+
+std::uint64_t SceneTracker::framesReceived() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return frames_;
+}
+
+}  // namespace xpersif

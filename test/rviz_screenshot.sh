@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# What a person sees: XPERSim with rviz under Xvfb (software GL), a screenshot, and a check that the
+# red, green and blue cubes are drawn where they are relative to each other (top-down view, x right,
+# y up): red (0.05, 0.15) and green (0.05, -0.15) left of blue (0.25, 0), red above green.
+set -euo pipefail
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
+work=$(mktemp -d)
+display=":$((90 + RANDOM % 100))"
+Xvfb "$display" -screen 0 1280x900x24 >"$work/xvfb.log" 2>&1 &
+xvfb=$!
+cleanup() {
+  kill -INT "${launch:-0}" 2>/dev/null || true
+  wait "${launch:-0}" 2>/dev/null || true
+  kill "$xvfb" 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+export DISPLAY=$display LIBGL_ALWAYS_SOFTWARE=1
+roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersim.launch rviz:=true rviz_config:="$repo/test/rviz_topdown.rviz" \
+  >"$work/launch.log" 2>&1 &
+launch=$!
+# Software GL is slow to start: wait until rviz has a window, then a little for markers and the robot.
+for _ in $(seq 1 90); do
+  xwininfo -root -tree 2>/dev/null | grep -qi rviz && break
+  sleep 1
+done
+sleep 12
+/usr/bin/import -window root "$work/shot.png"
+cp "$work/shot.png" "${RVIZ_SCREENSHOT:-/tmp/xpersif_rviz_screenshot.png}"
+/usr/bin/python3 - "$work/shot.png" <<'PY'
+import subprocess, sys
+png = sys.argv[1]
+size = subprocess.check_output(["/usr/bin/identify", "-format", "%w %h", png]).decode().split()
+w, h = int(size[0]), int(size[1])
+raw = subprocess.check_output(["/usr/bin/convert", png, "-depth", "8", "rgb:-"])
+def centroid(test):
+    xs = ys = n = 0
+    for y in range(0, h, 2):
+        row = y * w * 3
+        for x in range(0, w, 2):
+            r, g, b = raw[row + 3 * x], raw[row + 3 * x + 1], raw[row + 3 * x + 2]
+            if test(r, g, b):
+                xs += x; ys += y; n += 1
+    return (xs / n, ys / n, n) if n else None
+red = centroid(lambda r, g, b: r > 150 and g < 80 and b < 80)
+green = centroid(lambda r, g, b: g > 120 and r < 80 and b < 90)
+blue = centroid(lambda r, g, b: b > 150 and r < 80 and g < 100)
+print("rviz screenshot %dx%d: red %s green %s blue %s" % (w, h, red, green, blue))
+ok = red and green and blue and red[2] > 20 and green[2] > 20 and blue[2] > 20
+ok = ok and red[0] < blue[0] and green[0] < blue[0] and red[1] < green[1]
+if not ok:
+    print("FAIL: the cubes are missing or misplaced in the screenshot")
+    sys.exit(1)
+print("1 passed, 0 failed")
+PY
