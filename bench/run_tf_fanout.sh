@@ -10,15 +10,15 @@
 # Part 2: SIZE_CLIENTS clients, scenes of SIZES dynamic nodes, for both publishers (7 = the paper's
 #         scene, table1.yaml: robot base, two wheels, four cubes).
 # Every client measures the same wall-clock window of DURATION s, which opens once all clients have had
-# time to start. Writes one JSON line per client, meta.json per run, and tf_fanout.md (the tables).
+# time to start. Writes clients.jsonl (one JSON line per client) and meta.json per run, and tf_fanout.md.
 set -eo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 BUILD=${1:-/tmp/bench-build}
 OUT=${2:-$HERE/results/tf_fanout-$(date +%Y%m%d-%H%M%S)}
 PORT=${PORT:-11411}
 DURATION=${DURATION:-5}
-CLIENTS=${CLIENTS:-"1 3 5 10 50 100"}
-SIZES=${SIZES:-"7 15 100 1000"}
+CLIENTS=${CLIENTS-"1 3 5 10 50 100"}
+SIZES=${SIZES-"7 15 100 1000"}
 SIZE_CLIENTS=${SIZE_CLIENTS:-10}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
@@ -100,6 +100,10 @@ run() {
   local load
   load=$(cut -d' ' -f1-3 /proc/loadavg)
   for p in "${cpids[@]}"; do wait "$p" || true; done
+  # One file per run: every client's JSON line (and their stderr, if any).
+  cat "$dir"/client_*.json >"$dir/clients.jsonl" && rm -f "$dir"/client_*.json
+  cat "$dir"/client_*.err >"$dir/clients.err" && rm -f "$dir"/client_*.err
+  [ -s "$dir/clients.err" ] || rm -f "$dir/clients.err"
   kill -INT "$ppid" 2>/dev/null || true
   for _ in $(seq 50); do kill -0 "$ppid" 2>/dev/null || break; sleep 0.1; done
   kill -KILL "$ppid" 2>/dev/null || true
@@ -109,7 +113,7 @@ run() {
   cpu=$(awk -v a="$c0" -v b="$c1" -v t0="$t0" -v t1="$t1" -v hz="$(getconf CLK_TCK)" 'BEGIN{printf "%.0f", (b - a) / hz / (t1 - t0) * 100}')
   printf '{"publisher":"%s","transforms":%s,"clients":%s,"world":"%s","duration_s":%s,"publisher_cpu_pct":%s,"loadavg":"%s"}\n' \
     "$pub" "$n" "$clients" "${world#"$HERE"/}" "$DURATION" "$cpu" "$load" >"$dir/meta.json"
-  echo "$(date +%T) $tag: publisher CPU ${cpu}%, load $load, $(cat "$dir"/client_*.json | grep -c '"received"') client reports"
+  echo "$(date +%T) $tag: publisher CPU ${cpu}%, load $load, $(grep -c '"received"' "$dir/clients.jsonl") client reports"
 }
 
 {

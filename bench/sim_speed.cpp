@@ -292,17 +292,17 @@ int local(const std::string& path, double sim_seconds, int reps) {
   for (int r = 0; r < reps; ++r) {
     last_bare = runBare(spec, sim_seconds);
     bare.push_back(last_bare.rtf);
-    std::printf("{\"run\":\"bare_ode\",\"rep\":%d,\"sim_s\":%.1f,\"wall_s\":%.3f,\"rtf\":%.1f,\"robot_x\":%.6f,\"robot_y\":%.6f}\n", r,
+    std::printf("{\"run\":\"bare_ode\",\"rep\":%d,\"sim_s\":%.1f,\"wall_s\":%.3f,\"rtf\":%.3g,\"robot_x\":%.6f,\"robot_y\":%.6f}\n", r,
                 sim_seconds, last_bare.wall, last_bare.rtf, last_bare.x, last_bare.y);
     last_world = runWorld(spec, sim_seconds);
     world.push_back(last_world.rtf);
-    std::printf("{\"run\":\"physics_world\",\"rep\":%d,\"sim_s\":%.1f,\"wall_s\":%.3f,\"rtf\":%.1f,\"robot_x\":%.6f,\"robot_y\":%.6f}\n", r,
+    std::printf("{\"run\":\"physics_world\",\"rep\":%d,\"sim_s\":%.1f,\"wall_s\":%.3f,\"rtf\":%.3g,\"robot_x\":%.6f,\"robot_y\":%.6f}\n", r,
                 sim_seconds, last_world.wall, last_world.rtf, last_world.x, last_world.y);
     std::fflush(stdout);
   }
   const double a = median(bare), b = median(world);
-  std::printf("{\"summary\":\"local\",\"world\":\"%s\",\"step\":%g,\"iterations\":%d,\"bodies\":%zu,\"bare_rtf_median\":%.1f,"
-              "\"world_rtf_median\":%.1f,\"world_overhead_pct\":%.1f,\"same_end_position\":%s,\"end_position_diff_m\":%.3g}\n",
+  std::printf("{\"summary\":\"local\",\"world\":\"%s\",\"step\":%g,\"iterations\":%d,\"bodies\":%zu,\"bare_rtf_median\":%.3g,"
+              "\"world_rtf_median\":%.3g,\"world_overhead_pct\":%.1f,\"same_end_position\":%s,\"end_position_diff_m\":%.3g}\n",
               path.c_str(), spec.physics.step, spec.physics.iterations, spec.objects.size() + 3, a, b, (a / b - 1) * 100,
               (last_bare.x == last_world.x && last_bare.y == last_world.y) ? "true" : "false",
               std::hypot(last_bare.x - last_world.x, last_bare.y - last_world.y));
@@ -356,7 +356,7 @@ int node(int argc, char** argv, double wall_seconds, const std::string& status_t
     return 2;
   }
   const double wall = points.back().wall - points.front().wall, sim = points.back().sim - points.front().sim;
-  std::printf("{\"run\":\"xpersim_node\",\"clock_subscriber\":%s,\"wall_s\":%.3f,\"sim_s\":%.3f,\"rtf\":%.1f,\"clock_msgs_per_s\":%.0f}\n",
+  std::printf("{\"run\":\"xpersim_node\",\"clock_subscriber\":%s,\"wall_s\":%.3f,\"sim_s\":%.3f,\"rtf\":%.3g,\"clock_msgs_per_s\":%.0f}\n",
               clock_subscriber ? "true" : "false", wall, sim, sim / wall, clocks / (ros::WallTime::now() - start).toSec());
   return 0;
 }

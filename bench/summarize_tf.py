@@ -15,11 +15,13 @@ def load(out):
         d = os.path.dirname(meta_path)
         meta = json.load(open(meta_path))
         clients = []
-        for p in sorted(glob.glob(os.path.join(d, "client_*.json"))):
-            text = open(p).read().strip()
-            if text:
+        texts = [open(p).read() for p in sorted(glob.glob(os.path.join(d, "client_*.json")))]
+        if os.path.exists(os.path.join(d, "clients.jsonl")):
+            texts.append(open(os.path.join(d, "clients.jsonl")).read())
+        for line in "\n".join(texts).splitlines():
+            if line.strip().startswith("{"):
                 try:
-                    clients.append(json.loads(text.splitlines()[-1]))
+                    clients.append(json.loads(line))
                 except ValueError:
                     pass
         runs[(meta["publisher"], meta["transforms"], meta["clients"])] = (meta, clients)
