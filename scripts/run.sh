@@ -18,7 +18,14 @@ port=${ROS_MASTER_URI##*:}
 roslaunch -p "$port" xpersif xpersif.launch >"$run_dir/launch.log" 2>&1 &
 launch_pid=$!
 stop() {
-  kill -INT "$launch_pid" 2>/dev/null || true
+  # roslaunch may ignore SIGINT while it is still starting: escalate rather than wait forever.
+  for signal in INT INT TERM KILL; do
+    kill -"$signal" "$launch_pid" 2>/dev/null || break
+    for _ in $(seq 1 50); do
+      kill -0 "$launch_pid" 2>/dev/null || break 2
+      sleep 0.2
+    done
+  done
   wait "$launch_pid" 2>/dev/null || true
 }
 trap stop EXIT

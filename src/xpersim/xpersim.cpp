@@ -172,18 +172,20 @@ void XPerSim::declareOperations() {
 void XPerSim::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   std::string world_file, mode = "realtime";
-  double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0;
+  double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0, max_frame_rate = 1000.0;
   bool start_paused = false;
   if (!pnh.getParam("world", world_file)) throw std::runtime_error("~world is not set; give the path of a world file");
   pnh.param("clock_mode", mode, mode);
   pnh.param("real_time_factor", real_time_factor, real_time_factor);
   pnh.param("tf_rate", tf_rate, tf_rate);
   pnh.param("sensor_rate", sensor_rate, sensor_rate);
+  pnh.param("max_frame_rate", max_frame_rate, max_frame_rate);
   pnh.param("start_paused", start_paused, start_paused);
   core::requireOneOf("~clock_mode", mode, {"realtime", "fast", "lockstep"});
   core::requireInRange("~real_time_factor", real_time_factor, 0.01, 100.0);
   core::requireInRange("~tf_rate", tf_rate, 1.0, 10000.0);
   core::requireInRange("~sensor_rate", sensor_rate, 0.1, 1000.0);
+  core::requireInRange("~max_frame_rate", max_frame_rate, 1.0, 100000.0);
   // Built completely before it replaces anything: a bad world file leaves the old world running.
   auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(world_file));
 
@@ -194,6 +196,7 @@ void XPerSim::onConfigure() {
   real_time_factor_ = real_time_factor;
   tf_period_ = 1.0 / tf_rate;
   sensor_period_ = 1.0 / sensor_rate;
+  min_frame_wall_interval_ = 1.0 / max_frame_rate;
   next_frame_ = next_sensors_ = 0;
   paused_ = start_paused;
 
@@ -372,7 +375,15 @@ void XPerSim::stepLocked() {
     return;
   }
   const double t = world_->time() + 1e-9;
-  if (t >= next_frame_) {
+  // In fast mode frames are also limited per wall second: viewers cannot use 30k frames/s, and the
+  // messages would cost more than the physics (bench/README.md).
+  bool frame_allowed = true;
+  if (mode_ == ClockMode::Fast && !paused_) {
+    const double now = ros::WallTime::now().toSec();
+    frame_allowed = now - last_frame_wall_ >= min_frame_wall_interval_;
+    if (frame_allowed && t >= next_frame_) last_frame_wall_ = now;
+  }
+  if (t >= next_frame_ && frame_allowed) {
     publishFrameLocked();
     next_frame_ += tf_period_;
     if (next_frame_ < t) next_frame_ = t + tf_period_;
@@ -427,7 +438,13 @@ void XPerSim::loop() {
       // make it race to catch up.
       const auto due = wall_anchor + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>((sim_time - sim_anchor) / real_time_factor_));
-      std::this_thread::sleep_until(due);
+      if (Clock::now() - due > std::chrono::milliseconds(20)) {
+        // Fell behind (the machine was busy): go on from now instead of publishing the missed frames in
+        // a burst that would overflow subscribers' queues. Simulated time runs slow for that moment.
+        restart_pacing_ = true;
+      } else {
+        std::this_thread::sleep_until(due);
+      }
     }
   }
 }

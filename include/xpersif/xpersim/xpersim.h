@@ -7,6 +7,8 @@
  *  - `~world` (path to a world file; required), `~clock_mode` (`realtime` | `fast` | `lockstep`),
  *    `~real_time_factor` (realtime mode, default 1), `~start_paused` (default false),
  *    `~tf_rate` (Hz of simulated time for /tf and /clock, default 1000), `~sensor_rate` (Hz, default 50),
+ *    `~max_frame_rate` (fast mode: at most this many /tf + /clock frames per wall second, default 1000;
+ *    publishing every step at 30k steps/s would cost more than the physics),
  *    `~allow_fault_injection` (default false; advertises `~inject_fault` for tests).
  *
  * Publishes: /clock, /tf (dynamic nodes, one TFMessage per frame), /tf_static (latched), `~scene`
@@ -61,6 +63,8 @@ class XPerSim : public Component {
   double real_time_factor_ = 1.0;
   double tf_period_ = 0.001, sensor_period_ = 0.02;
   double next_frame_ = 0, next_sensors_ = 0;
+  double min_frame_wall_interval_ = 0.001;  // fast mode only
+  double last_frame_wall_ = 0;
   bool allow_fault_injection_ = false;
   std::string last_problem_;
   double last_problem_wall_ = -1e9;
