@@ -40,7 +40,7 @@ fi
 {
   echo "== component states"
   xpersif status --timeout 2
-  for component in /xpersif/counter /xpersif/statistics; do
+  for component in /xpersif/xpersim /xpersif/counter /xpersif/statistics; do
     echo
     echo "== contracts of $component"
     xpersif contracts "$component"
