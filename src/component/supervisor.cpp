@@ -125,16 +125,23 @@ void Supervisor::onActivate() {
     std::lock_guard<std::mutex> lock(mutex_);
     status_subscribers_.clear();
   }
-  for (const auto& component : components_) {
-    watch(component);
-    try {
-      bringUp(component);
-    } catch (const std::exception& e) {
-      throw std::runtime_error("could not start " + component.name + ": " + e.what());
-    }
-  }
+  for (const auto& component : components_) watch(component);
+  // Bring-up runs in the supervisor's own thread, never in a manager's callback thread: the components
+  // may live in the supervisor's own manager and need its threads to answer the calls.
   monitoring_ = true;
-  monitor_thread_ = std::thread([this] { monitorLoop(); });
+  monitor_thread_ = std::thread([this] {
+    for (const auto& component : components_) {
+      if (!monitoring_) return;
+      try {
+        bringUp(component);
+      } catch (const std::exception& e) {
+        monitoring_ = false;
+        reportError("could not start " + component.name + ": " + e.what());
+        return;
+      }
+    }
+    monitorLoop();
+  });
 }
 
 void Supervisor::onDeactivate() {

@@ -126,6 +126,16 @@ TEST_F(Supervision, BadConfigurationIsRefusedWithTheReason) {
   EXPECT_NE(r.message.find("~components[0] has no 'manager'"), std::string::npos) << r.message;
 }
 
+TEST_F(Supervision, AComponentThatCannotBeStartedPutsTheSupervisorInErrorWithTheReason) {
+  Recorder<ComponentStatus> status(nh_, "/broken_supervisor/status");
+  ComponentStatus failed;
+  ASSERT_TRUE(status.waitForMatch([](const ComponentStatus& s) { return s.state == ComponentStatus::ERROR; }, 60.0,
+                                  &failed));
+  EXPECT_NE(failed.last_error.find("could not start /ghost: manager /loop_manager could not load xpersif/NoSuchNodelet"),
+            std::string::npos)
+      << failed.last_error;
+}
+
 TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerIsBack) {
   Recorder<ComponentStatus> status(nh_, "/supervisor/status");
   Recorder<ComponentEvent> events(nh_, "/supervisor/events");
