@@ -85,17 +85,8 @@ void Component::halt() {
   stopCommands("component " + name_ + " is shutting down");
   if (lifecycle_.state() != LifecycleState::Finalized) transition(LifecycleTransition::Shutdown);
   heartbeat_timer_.stop();
-  if (status_pub_) {
-    ComponentStatus last;
-    last.header.stamp = ros::Time(ros::WallTime::now().toSec());
-    last.component = name_;
-    last.type = type_;
-    last.state = static_cast<std::uint8_t>(lifecycle_.state());
-    last.state_name = toString(lifecycle_.state());
-    last.last_error = lifecycle_.lastError();
-    last.heartbeat_period = heartbeat_period_;
-    status_pub_.publish(last);
-  }
+  // The last word: FINALIZED, so that supervisors see a deliberate exit rather than silence.
+  if (status_pub_) status_pub_.publish(makeStatus(false));
 }
 
 void Component::stopCommands(const std::string& reason) {
@@ -209,6 +200,14 @@ void Component::reportError(const std::string& error) {
 }
 
 void Component::publishStatus() {
+  ComponentStatus status = makeStatus(true);
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  if (halted_) return;
+  status.heartbeat = ++heartbeat_;
+  status_pub_.publish(status);
+}
+
+ComponentStatus Component::makeStatus(bool with_details) {
   ComponentStatus status;
   status.header.stamp = ros::Time(ros::WallTime::now().toSec());
   status.component = name_;
@@ -219,6 +218,7 @@ void Component::publishStatus() {
   status.health = state == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR : ComponentStatus::HEALTH_OK;
   status.last_error = lifecycle_.lastError();
   status.heartbeat_period = heartbeat_period_;
+  if (!with_details) return status;  // while halting, derived parts may be gone
   {
     std::lock_guard<std::mutex> lock(contracts_mutex_);
     for (const auto& c : commands_) {
@@ -226,10 +226,7 @@ void Component::publishStatus() {
     }
   }
   fillStatus(status);
-  std::lock_guard<std::mutex> lock(status_mutex_);
-  if (halted_) return;
-  status.heartbeat = ++heartbeat_;
-  status_pub_.publish(status);
+  return status;
 }
 
 }  // namespace xpersif

@@ -351,6 +351,16 @@ struct PhysicsWorld::Impl {
     odometry = good_odometry;
   }
 
+  /// The robot's root body or an object's body. @throws ValidationError for unknown names
+  dBodyID body(const std::string& name) const {
+    if (name == spec.robot.name) return robot_bodies[0];
+    for (const auto& o : objects) {
+      if (o.first == name) return o.second;
+    }
+    requireKnownName("body", name, spec.bodyNames());  // throws with the list of known names
+    return nullptr;
+  }
+
   std::string bodyName(dBodyID body) const {
     for (const auto& [link, b] : link_body) {
       if (b == body && body_from_link.at(link).isApprox(Eigen::Isometry3d::Identity())) return spec.robot.name + "/" + link;
@@ -508,9 +518,7 @@ void PhysicsWorld::setPose(const std::string& body, const Eigen::Isometry3d& pos
     w.odometry.y = p.y();
     w.odometry.yaw = yawOf(pose);
   } else {
-    for (const auto& o : w.objects) {
-      if (o.first == body) place(o.second, pose);
-    }
+    place(w.body(body), pose);
   }
   w.saveGoodState();
 }
@@ -518,35 +526,18 @@ void PhysicsWorld::setPose(const std::string& body, const Eigen::Isometry3d& pos
 double PhysicsWorld::time() const { return impl_->time; }
 std::uint64_t PhysicsWorld::stepCount() const { return impl_->steps; }
 
-Eigen::Isometry3d PhysicsWorld::bodyPose(const std::string& body) const {
-  requireKnownName("body", body, spec_.bodyNames());
-  if (body == spec_.robot.name) return poseOf(impl_->robot_bodies[0]);
-  for (const auto& o : impl_->objects) {
-    if (o.first == body) return poseOf(o.second);
-  }
-  return Eigen::Isometry3d::Identity();
-}
-
 namespace {
 Eigen::Vector3d toVector(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
 }  // namespace
 
+Eigen::Isometry3d PhysicsWorld::bodyPose(const std::string& body) const { return poseOf(impl_->body(body)); }
+
 Eigen::Vector3d PhysicsWorld::bodyLinearVelocity(const std::string& body) const {
-  requireKnownName("body", body, spec_.bodyNames());
-  if (body == spec_.robot.name) return toVector(dBodyGetLinearVel(impl_->robot_bodies[0]));
-  for (const auto& o : impl_->objects) {
-    if (o.first == body) return toVector(dBodyGetLinearVel(o.second));
-  }
-  return Eigen::Vector3d::Zero();
+  return toVector(dBodyGetLinearVel(impl_->body(body)));
 }
 
 Eigen::Vector3d PhysicsWorld::bodyAngularVelocity(const std::string& body) const {
-  requireKnownName("body", body, spec_.bodyNames());
-  if (body == spec_.robot.name) return toVector(dBodyGetAngularVel(impl_->robot_bodies[0]));
-  for (const auto& o : impl_->objects) {
-    if (o.first == body) return toVector(dBodyGetAngularVel(o.second));
-  }
-  return Eigen::Vector3d::Zero();
+  return toVector(dBodyGetAngularVel(impl_->body(body)));
 }
 
 FrameTransforms PhysicsWorld::dynamicTransforms() const {
@@ -609,11 +600,7 @@ PhysicsWorld::WheelState PhysicsWorld::wheels() const {
 std::string PhysicsWorld::checkHealth() const { return impl_->health(); }
 
 void PhysicsWorld::injectFault(const std::string& body, bool explode) {
-  requireKnownName("body", body, spec_.bodyNames());
-  dBodyID b = body == spec_.robot.name ? impl_->robot_bodies[0] : nullptr;
-  for (const auto& o : impl_->objects) {
-    if (o.first == body) b = o.second;
-  }
+  dBodyID b = impl_->body(body);
   const double f = explode ? 1e9 : std::numeric_limits<double>::quiet_NaN();
   dBodyAddForce(b, f, f, 0);
 }

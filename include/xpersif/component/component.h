@@ -116,6 +116,8 @@ class Component {
   bool onGetState(GetState::Response& response);
   bool onGetContracts(GetContracts::Request& request, GetContracts::Response& response);
   void stopCommands(const std::string& reason);
+  /// State, health and last error; with @p with_details also running commands and fillStatus().
+  ComponentStatus makeStatus(bool with_details);
 
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
