@@ -58,28 +58,6 @@ dGeomID createGeom(dSpaceID space, const Shape& shape) {
   return nullptr;
 }
 
-double lowestZ(const Shape& shape, const Eigen::Isometry3d& t) {
-  const Eigen::Vector3d c = t.translation();
-  switch (shape.type) {
-    case Shape::Type::Sphere: return c.z() - shape.radius;
-    case Shape::Type::Cylinder: {
-      const Eigen::Vector3d axis = t.rotation().col(2);
-      return c.z() - std::fabs(axis.z()) * shape.length / 2 -
-             shape.radius * std::sqrt(std::max(0.0, 1.0 - axis.z() * axis.z()));
-    }
-    case Shape::Type::Box: {
-      double low = std::numeric_limits<double>::infinity();
-      for (int i = 0; i < 8; ++i) {
-        const Eigen::Vector3d corner((i & 1 ? 0.5 : -0.5) * shape.box_size.x(), (i & 2 ? 0.5 : -0.5) * shape.box_size.y(),
-                                     (i & 4 ? 0.5 : -0.5) * shape.box_size.z());
-        low = std::min(low, (t * corner).z());
-      }
-      return low;
-    }
-  }
-  return c.z();
-}
-
 struct GeomInfo {
   double friction;
   bool robot;
@@ -126,16 +104,7 @@ struct BareWorld {
     dGeomID floor = dCreatePlane(space, 0, 0, 1, 0);
     infos.push_back(std::make_unique<GeomInfo>(GeomInfo{1.0, false}));
     dGeomSetData(floor, infos.back().get());
-    const auto& a = spec.arena;
-    const double t = a.wall_thickness, h = a.wall_height, hx = a.size_x / 2 + t / 2, hy = a.size_y / 2 + t / 2;
-    const double walls[4][4] = {{hx, 0, t, a.size_y + 2 * t}, {-hx, 0, t, a.size_y + 2 * t}, {0, hy, a.size_x, t}, {0, -hy, a.size_x, t}};
-    for (const auto& w : walls) {
-      Shape box;
-      box.box_size = Eigen::Vector3d(w[2], w[3], h);
-      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-      at.translation() = Eigen::Vector3d(w[0], w[1], h / 2);
-      geom(box, nullptr, at, 0.5, false);
-    }
+    for (const auto& wall : spec.arena.walls()) geom(wall.shape, nullptr, wall.offset, 0.5, false);
 
     // Robot: revolute links are bodies with hinges (velocity motors); fixed links merge into their parent.
     const auto& robot = spec.robot;
@@ -144,7 +113,9 @@ struct BareWorld {
     double lowest = std::numeric_limits<double>::infinity();
     for (const auto& link : robot.links) {
       world_from_link[link.name] = link.parent.empty() ? robot.pose : world_from_link[link.parent] * link.parent_from_link;
-      for (const auto& c : link.collisions) lowest = std::min(lowest, lowestZ(c.shape, world_from_link[link.name] * c.offset));
+      for (const auto& c : link.collisions) {
+        lowest = std::min(lowest, xpersif::core::lowestPoint(c.shape, world_from_link[link.name] * c.offset));
+      }
     }
     const double lift = std::isfinite(lowest) ? robot.pose.translation().z() - lowest + 0.0001 : 0;
     for (auto& e : world_from_link) e.second.translation().z() += lift;
@@ -193,7 +164,7 @@ struct BareWorld {
       dMassSetBoxTotal(&m, o.mass, o.shape.box_size.x(), o.shape.box_size.y(), o.shape.box_size.z());
       dBodySetMass(body, &m);
       Eigen::Isometry3d pose = o.pose;
-      pose.translation().z() += -lowestZ(o.shape, pose) + 0.0001;
+      pose.translation().z() += -xpersif::core::lowestPoint(o.shape, pose) + 0.0001;
       setPoseOf(body, pose);
       geom(o.shape, body, Eigen::Isometry3d::Identity(), o.friction, false);
       bodies.push_back(body);

@@ -125,11 +125,11 @@ bool Component::onTransitionService(LifecycleTransition t, Transition::Response&
 }
 
 bool Component::onGetState(GetState::Response& response) {
-  const LifecycleState state = lifecycle_.state();
-  response.state = static_cast<std::uint8_t>(state);
-  response.state_name = toString(state);
-  response.health = state == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR : ComponentStatus::HEALTH_OK;
-  response.last_error = lifecycle_.lastError();
+  const ComponentStatus status = makeStatus(false);
+  response.state = status.state;
+  response.state_name = status.state_name;
+  response.health = status.health;
+  response.last_error = status.last_error;
   ComponentEvent event = events_.make(ComponentEvent::OPERATION, "get_state", "ok");
   event.response = toYaml(response);
   events_.publish(event);

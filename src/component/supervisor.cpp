@@ -25,16 +25,6 @@ std::string memberString(const XmlRpc::XmlRpcValue& entry, const char* key, cons
   return static_cast<std::string>(value);
 }
 
-std::uint8_t transitionTarget(LifecycleTransition t) {
-  switch (t) {
-    case LifecycleTransition::Configure: return ComponentStatus::INACTIVE;
-    case LifecycleTransition::Activate: return ComponentStatus::ACTIVE;
-    case LifecycleTransition::Deactivate: return ComponentStatus::INACTIVE;
-    case LifecycleTransition::Shutdown: return ComponentStatus::FINALIZED;
-  }
-  return ComponentStatus::ERROR;
-}
-
 }  // namespace
 
 Supervisor::Supervisor(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type)
@@ -235,7 +225,7 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
   Transition call;
   if (!ros::service::call(service, call)) throw std::runtime_error("call to " + service + " failed");
   // An already reached state (e.g. configure on an INACTIVE component re-reads parameters) is fine.
-  if (!call.response.success && call.response.state != transitionTarget(transition)) {
+  if (!call.response.success && call.response.state != static_cast<std::uint8_t>(core::targetOf(transition))) {
     throw std::runtime_error(component.name + " refused to " + toString(transition) + ": " + call.response.message);
   }
 }

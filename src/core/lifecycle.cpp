@@ -30,7 +30,7 @@ void Lifecycle::setHooks(Hooks hooks) {
   hooks_ = std::move(hooks);
 }
 
-LifecycleState Lifecycle::target(LifecycleTransition transition) {
+LifecycleState targetOf(LifecycleTransition transition) {
   switch (transition) {
     case LifecycleTransition::Configure: return LifecycleState::Inactive;
     case LifecycleTransition::Activate: return LifecycleState::Active;
@@ -98,7 +98,7 @@ TransitionResult Lifecycle::request(LifecycleTransition transition) {
     result.message = error;
     return result;
   }
-  state_ = target(transition);
+  state_ = targetOf(transition);
   if (transition == LifecycleTransition::Configure) setError("");
   result.success = true;
   result.state = state_;

@@ -56,29 +56,6 @@ dGeomID createGeom(dSpaceID space, const Shape& shape) {
   return nullptr;
 }
 
-// Lowest point of a shape placed at @p t (exact for spheres, upright cylinders and boxes).
-double lowestZ(const Shape& shape, const Eigen::Isometry3d& t) {
-  const Eigen::Vector3d c = t.translation();
-  switch (shape.type) {
-    case Shape::Type::Sphere: return c.z() - shape.radius;
-    case Shape::Type::Cylinder: {
-      const Eigen::Vector3d axis = t.rotation().col(2);
-      const double radial = shape.radius * std::sqrt(std::max(0.0, 1.0 - axis.z() * axis.z()));
-      return c.z() - std::fabs(axis.z()) * shape.length / 2 - radial;
-    }
-    case Shape::Type::Box: {
-      double low = std::numeric_limits<double>::infinity();
-      for (int i = 0; i < 8; ++i) {
-        const Eigen::Vector3d corner((i & 1 ? 0.5 : -0.5) * shape.box_size.x(), (i & 2 ? 0.5 : -0.5) * shape.box_size.y(),
-                                     (i & 4 ? 0.5 : -0.5) * shape.box_size.z());
-        low = std::min(low, (t * corner).z());
-      }
-      return low;
-    }
-  }
-  return c.z();
-}
-
 struct BodyState {
   dVector3 position, linear, angular;
   dQuaternion orientation;
@@ -182,18 +159,7 @@ struct PhysicsWorld::Impl {
     dGeomID floor = dCreatePlane(space, 0, 0, 1, 0);
     geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{1.0, false}));
     dGeomSetData(floor, geom_infos.back().get());
-    const double t = a.wall_thickness, h = a.wall_height;
-    const double hx = a.size_x / 2 + t / 2, hy = a.size_y / 2 + t / 2;
-    const struct {
-      double x, y, sx, sy;
-    } walls[] = {{hx, 0, t, a.size_y + 2 * t}, {-hx, 0, t, a.size_y + 2 * t}, {0, hy, a.size_x, t}, {0, -hy, a.size_x, t}};
-    for (const auto& w : walls) {
-      Shape box;
-      box.box_size = Eigen::Vector3d(w.sx, w.sy, h);
-      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-      at.translation() = Eigen::Vector3d(w.x, w.y, h / 2);
-      addGeom(box, nullptr, at, 0.5, false);
-    }
+    for (const Visual& wall : a.walls()) addGeom(wall.shape, nullptr, wall.offset, 0.5, false);
   }
 
   static void setMass(dBodyID body, const LinkSpec& link) {
@@ -225,7 +191,9 @@ struct PhysicsWorld::Impl {
     double lowest = std::numeric_limits<double>::infinity();
     for (const auto& link : robot.links) {
       world_from_link[link.name] = link.parent.empty() ? robot.pose : world_from_link[link.parent] * link.parent_from_link;
-      for (const auto& c : link.collisions) lowest = std::min(lowest, lowestZ(c.shape, world_from_link[link.name] * c.offset));
+      for (const auto& c : link.collisions) {
+        lowest = std::min(lowest, lowestPoint(c.shape, world_from_link[link.name] * c.offset));
+      }
     }
     const double lift = std::isfinite(lowest) ? robot.pose.translation().z() - lowest + 0.0001 : 0;
     for (auto& entry : world_from_link) entry.second.translation().z() += lift;
@@ -286,7 +254,7 @@ struct PhysicsWorld::Impl {
     }
     dBodySetMass(body, &m);
     Eigen::Isometry3d pose = object.pose;
-    pose.translation().z() += -lowestZ(object.shape, pose) + 0.0001;  // rest on the floor
+    pose.translation().z() += -lowestPoint(object.shape, pose) + 0.0001;  // rest on the floor
     setPoseOf(body, pose);
     addGeom(object.shape, body, Eigen::Isometry3d::Identity(), object.friction, false);
     objects.emplace_back(object.name, body);
@@ -616,16 +584,7 @@ SceneDescription PhysicsWorld::buildScene() const {
   floor.offset.translation() = Eigen::Vector3d(0, 0, -0.001);
   floor.color = a.floor_color;
   arena.visuals.push_back(floor);
-  const double t = a.wall_thickness, h = a.wall_height;
-  const double hx = a.size_x / 2 + t / 2, hy = a.size_y / 2 + t / 2;
-  const double walls[4][4] = {{hx, 0, t, a.size_y + 2 * t}, {-hx, 0, t, a.size_y + 2 * t}, {0, hy, a.size_x, t}, {0, -hy, a.size_x, t}};
-  for (const auto& w : walls) {
-    Visual wall;
-    wall.shape.box_size = Eigen::Vector3d(w[2], w[3], h);
-    wall.offset.translation() = Eigen::Vector3d(w[0], w[1], h / 2);
-    wall.color = a.wall_color;
-    arena.visuals.push_back(wall);
-  }
+  for (const Visual& wall : a.walls()) arena.visuals.push_back(wall);
   scene.nodes.push_back(arena);
 
   const FrameTransforms now = dynamicTransforms();

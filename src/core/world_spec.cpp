@@ -23,6 +23,21 @@ double yawOf(const Eigen::Isometry3d& pose) {
   return std::atan2(r(1, 0), r(0, 0));
 }
 
+std::vector<Visual> ArenaSpec::walls() const {
+  const double t = wall_thickness, h = wall_height;
+  const double hx = size_x / 2 + t / 2, hy = size_y / 2 + t / 2;
+  const double boxes[4][4] = {{hx, 0, t, size_y + 2 * t}, {-hx, 0, t, size_y + 2 * t}, {0, hy, size_x, t}, {0, -hy, size_x, t}};
+  std::vector<Visual> out;
+  for (const auto& b : boxes) {
+    Visual wall;
+    wall.shape.box_size = Eigen::Vector3d(b[2], b[3], h);
+    wall.offset.translation() = Eigen::Vector3d(b[0], b[1], h / 2);
+    wall.color = wall_color;
+    out.push_back(wall);
+  }
+  return out;
+}
+
 std::vector<std::string> WorldSpec::bodyNames() const {
   std::vector<std::string> names{robot.name};
   for (const auto& o : objects) names.push_back(o.name);

@@ -30,6 +30,9 @@ enum class LifecycleState : std::uint8_t {
 /// The four transitions a caller can ask for.
 enum class LifecycleTransition : std::uint8_t { Configure, Activate, Deactivate, Shutdown };
 
+/// The state a successful @p transition ends in.
+LifecycleState targetOf(LifecycleTransition transition);
+
 /// "UNCONFIGURED", "INACTIVE", ...
 const char* toString(LifecycleState state);
 /// "configure", "activate", ...
@@ -78,7 +81,6 @@ class Lifecycle {
   bool isActive() const { return state() == LifecycleState::Active; }
 
  private:
-  static LifecycleState target(LifecycleTransition transition);
   void runHook(const std::function<void()>& hook);
 
   void setError(const std::string& error);

@@ -65,6 +65,10 @@ struct SceneDescription {
   const CameraModel* findCamera(const std::string& name) const;
 };
 
+/// Height of the lowest point of @p shape placed at @p world_from_shape (exact for spheres, boxes and
+/// cylinders): what it takes to set a thing down on the floor.
+double lowestPoint(const Shape& shape, const Eigen::Isometry3d& world_from_shape);
+
 /// Transforms of frames, by frame id.
 using FrameTransforms = std::map<std::string, Eigen::Isometry3d>;
 

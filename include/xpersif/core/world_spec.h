@@ -38,6 +38,9 @@ struct ArenaSpec {
   double wall_height = 0.05, wall_thickness = 0.02;
   Rgba wall_color{0.55f, 0.55f, 0.6f, 1.0f};
   Rgba floor_color{0.93f, 0.93f, 0.9f, 1.0f};
+
+  /// The four walls as boxes in the world frame (coloured wall_color), for physics and rendering alike.
+  std::vector<Visual> walls() const;
 };
 
 /// A link of the robot: its geometry and where it sits.
