@@ -148,8 +148,10 @@ class GoToPoseController {
   GoToPoseOptions options_;
   Pose2D goal_;
   MotionPhase phase_ = MotionPhase::Idle;
+  MotionPhase watched_phase_ = MotionPhase::Idle;  ///< phase the progress watch's baseline belongs to
   Velocity2D last_command_;
   bool reverse_ = false;
+  double last_yaw_error_ = 0;
   double elapsed_ = 0;
   double best_distance_ = 0, best_yaw_error_ = 0, since_progress_ = 0;
   std::string reason_;
@@ -353,8 +355,8 @@ class PushController {
 
  private:
   PushFeedback fail(const std::string& reason);
-  PushFeedback lineControl(const Pose2D& current, double dt, const Pose2D& from, const Pose2D& to, double speed,
-                           bool backwards, double& along_out);
+  PushFeedback lineControl(const Pose2D& current, double dt, const Pose2D& to, double speed, bool backwards,
+                           bool brake, double& along_out);
 
   MotionLimits limits_;
   PushControlOptions options_;
