@@ -1,0 +1,193 @@
+/**
+ * @file perception.h
+ * @brief FEATUREEXTRACTION, ROS-free: finds the known objects and the robot in a camera image and measures
+ *        their world poses from the image alone (OpenCV segmentation + the pinhole model), never from the
+ *        simulator's ground truth.
+ *
+ * What to look for comes from a PerceptionCatalogue (objects: name, colour, box size; the robot: body colour
+ * and radius, heading-marker colour and offset), normally built from XPERSim's scene description. Identity is
+ * by colour: each catalogue colour is one thing; blobs of colours not in the catalogue are ignored.
+ *
+ * Segmentation works on chromaticity (r, g, b) / (r + g + b): XPERSim's renderer shades a face by scaling its
+ * base colour (renderer.h), so every face of one object has the same chromaticity whatever its shade. Each
+ * catalogue colour gets a box in chromaticity space half as wide as its distance to the nearest other known
+ * colour (other catalogue colours, the scene's other visuals such as floor and walls, the grey background).
+ *
+ * Two measuring methods, chosen per image from the camera pose:
+ *  - Downward camera (optical axis within PerceptionOptions::max_downward_tilt of straight down), e.g. the
+ *    overhead camera: the brightest shade of a cube's blob is its top face (the light comes mostly from above);
+ *    its four edges are fitted (cv::fitLine on the contour sides, corners intersected), the corners are
+ *    back-projected onto the plane z = box height, and the centre is the top centre minus half the height.
+ *    Yaw is reported modulo the box's symmetry (pi/2 for a square top), folded into (-period/2, period/2].
+ *    The robot: centre of its body's top disc, heading from the marker (the camera box) relative to it.
+ *  - Forward camera (e.g. the robot camera): ground contact. The lowest image point of an object's blob lies on
+ *    the floor (z = 0); it is back-projected and moved half the box size further along the viewing ray's
+ *    horizontal direction. Orientation is unknown there (yaw_known = false); the robot is not looked for.
+ *
+ * Image conventions are the renderer's: continuous image point (u, v) = (fx x/z + cx, fy y/z + cy), and pixel
+ * (column i, row j) has its centre at (i + 0.5, j + 0.5); OpenCV's cv:: geometry puts pixel centres at
+ * integers, so contours (OpenCV pixel indices) are shifted by half a pixel before back-projection.
+ * Objects are assumed to rest on the floor (z = 0) upright, as XPERSim's cubes do.
+ *
+ * Thread safety: FeatureExtractor::extract() is const and keeps no state; several threads may share one.
+ */
+#pragma once
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "xpersif/core/scene.h"
+
+namespace xpersif::core {
+
+/// A thing to look for: a box of one colour resting on the floor.
+struct ObjectAppearance {
+  std::string name;          ///< e.g. "red_cube" (the scene node's name)
+  Rgba color;                ///< base colour (alpha ignored)
+  Eigen::Vector3d size{0.04, 0.04, 0.04};  ///< box extents along its x, y, z (z up)
+};
+
+/// How the robot looks from above: a cylindrical body and a small box marking its heading.
+struct RobotAppearance {
+  bool present = false;           ///< false: no robot is looked for
+  std::string name;               ///< root link, e.g. "base_link"
+  Rgba body_color;
+  double body_radius = 0.035;     ///< m
+  double body_top = 0.033;        ///< height of the body's top disc above the floor, m
+  Rgba marker_color;
+  Eigen::Vector3d marker_offset{0.03, 0, 0.018};  ///< marker centre in the root link's frame, m
+  Eigen::Vector3d marker_size{0.006, 0.01, 0.006};
+  double marker_top = 0.039;      ///< height of the marker's top face above the floor, m
+};
+
+/// What to look for.
+struct PerceptionCatalogue {
+  std::vector<ObjectAppearance> objects;
+  RobotAppearance robot;
+  /// Colours of everything else in view (floor, walls, wheels...): never reported, but they bound how loose
+  /// each catalogue colour's threshold may be. The renderer's grey background is always added by the extractor.
+  std::vector<Rgba> other_colors;
+
+  /**
+   * @brief From XPERSim's scene: objects are the top-level dynamic nodes with exactly one box visual; the robot
+   *        is @p robot_root (its cylinder visual: body colour, radius and top height from its initial pose)
+   *        with the box visual of its descendant "camera_link" (or, failing that, of its first descendant with
+   *        one box visual) as the heading marker. All other visuals' colours go to other_colors.
+   * @throws ValidationError if @p robot_root exists but has no cylinder visual
+   */
+  static PerceptionCatalogue fromScene(const SceneDescription& scene, const std::string& robot_root = "base_link");
+
+  /// The object called @p name, or nullptr.
+  const ObjectAppearance* find(const std::string& name) const;
+};
+
+struct PerceptionOptions {
+  /// A camera whose optical axis is within this angle of straight down uses the top-face method, else the
+  /// ground-contact method (rad).
+  double max_downward_tilt = M_PI / 4;
+  /// Pixels darker than this (r + g + b, 0..765) are not classified (chromaticity is noise there).
+  double min_brightness = 45;
+  /// Upper bound on a colour's chromaticity half-width (its box is also at most half the distance to the
+  /// nearest other known colour).
+  double max_chroma_tolerance = 0.06;
+  /// Blobs smaller than this many pixels are ignored (noise, slivers).
+  double min_blob_pixels = 6;
+  /// A top face is the part of a blob at least this fraction as bright as its brightest pixel.
+  double top_face_brightness = 0.9;
+  /// Downward camera: a detection whose top face covers less than this fraction of the expected area is
+  /// treated as occluded and reported missing rather than guessed.
+  double min_top_fraction = 0.5;
+  /// Morphological opening kernel (pixels, odd; 1 = none) applied to each colour mask.
+  int morphology_kernel = 1;
+};
+
+/// One object found in the image.
+struct ObjectDetection {
+  std::string name;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< box centre in the world, m
+  double yaw = 0;                 ///< rad, folded into (-yaw_period/2, yaw_period/2]; valid if yaw_known
+  double yaw_period = M_PI / 2;   ///< the box's symmetry: pi/2 for a square top, pi for a rectangle
+  bool yaw_known = true;          ///< false with the ground-contact (forward camera) method
+  cv::Point2d centroid;           ///< blob centroid, renderer convention (pixel centres at i + 0.5)
+  double pixel_area = 0;          ///< pixels in the blob (all visible faces)
+  double confidence = 0;          ///< 0..1: how well the measured top (or blob) matches the expected size
+  std::vector<cv::Point> contour;      ///< the blob's outer contour, OpenCV pixel indices
+  std::vector<cv::Point> top_contour;  ///< the top face's outer contour (downward camera; else empty)
+  /// The top face's corners back-projected to z = box height, in order around the face (downward camera;
+  /// else empty). Their edges give the measured size.
+  std::vector<Eigen::Vector3d> top_corners;
+  /// Width and height of the visible box in m (forward camera: blob extent at the ground-contact depth;
+  /// downward camera: mean edge lengths of the top face, long side first).
+  double measured_length = 0, measured_width = 0;
+};
+
+/// The robot found in the image (downward camera only).
+struct RobotDetection {
+  bool found = false;
+  double x = 0, y = 0;        ///< body centre in the world, m
+  double yaw = 0;             ///< heading, rad in (-pi, pi]; valid if yaw_known
+  bool yaw_known = false;     ///< false when the marker was not seen
+  cv::Point2d centroid;       ///< body centroid in the image, renderer convention
+  double pixel_area = 0;
+  double confidence = 0;
+  std::vector<cv::Point> contour;
+};
+
+struct Detections {
+  std::map<std::string, ObjectDetection> objects;  ///< by catalogue name; only what was seen
+  std::vector<std::string> missing;                ///< catalogue objects not found, in catalogue order
+  RobotDetection robot;
+  bool downward = true;                            ///< which method was used
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+/// FEATUREEXTRACTION for one camera.
+class FeatureExtractor {
+ public:
+  /**
+   * @throws ValidationError for an unusable camera (non-positive size or focal length, non-finite centre),
+   *         a catalogue object with a non-positive size or a colour too close to another known colour to tell
+   *         apart (the sentence names both), or bad options
+   */
+  FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera,
+                   PerceptionOptions options = PerceptionOptions());
+
+  /**
+   * @brief Finds the catalogue's objects (and, with a downward camera, the robot) in @p bgr.
+   * @param bgr CV_8UC3 image of camera().height rows x camera().width columns
+   * @param world_from_camera pose of the camera's optical frame in the world
+   * @throws ValidationError for an empty image, a wrong type or size, or a non-finite or non-rigid pose
+   */
+  Detections extract(const cv::Mat& bgr, const Eigen::Isometry3d& world_from_camera) const;
+
+  /// True when extract() would use the top-face method for this camera pose.
+  bool isDownward(const Eigen::Isometry3d& world_from_camera) const;
+
+  const PerceptionCatalogue& catalogue() const { return catalogue_; }
+  const CameraModel& camera() const { return camera_; }
+  const PerceptionOptions& options() const { return options_; }
+
+  /// The chromaticity box used for each catalogue object (by name), for diagnostics: centre and half-width.
+  struct ColorClass {
+    std::string name;
+    cv::Vec3f chroma;     ///< (b, g, r) / (b + g + r), OpenCV channel order
+    float tolerance = 0;  ///< half-width of the box on every channel
+  };
+  const std::vector<ColorClass>& colorClasses() const { return classes_; }
+
+ private:
+  PerceptionCatalogue catalogue_;
+  CameraModel camera_;
+  PerceptionOptions options_;
+  std::vector<ColorClass> classes_;  // objects in catalogue order, then robot body, then marker
+};
+
+/// @p yaw folded into (-period/2, period/2].
+double foldAngle(double yaw, double period);
+
+}  // namespace xpersif::core

@@ -1,0 +1,619 @@
+#include "xpersif/core/perception.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <utility>
+
+#include "xpersif/core/renderer.h"
+#include "xpersif/core/validation.h"
+
+namespace xpersif::core {
+
+namespace {
+
+// Chromaticity of a base colour, in OpenCV's (b, g, r) order.
+cv::Vec3f chromaOf(const Rgba& c) {
+  const double sum = static_cast<double>(c.r) + c.g + c.b;
+  if (sum <= 0) return {1.0f / 3, 1.0f / 3, 1.0f / 3};  // black: treat as neutral
+  return {static_cast<float>(c.b / sum), static_cast<float>(c.g / sum), static_cast<float>(c.r / sum)};
+}
+
+float chebyshev(const cv::Vec3f& a, const cv::Vec3f& b) {
+  return std::max({std::fabs(a[0] - b[0]), std::fabs(a[1] - b[1]), std::fabs(a[2] - b[2])});
+}
+
+std::string describeColor(const Rgba& c) {
+  return "(" + describeNumber(c.r) + ", " + describeNumber(c.g) + ", " + describeNumber(c.b) + ")";
+}
+
+// The renderer's pinhole model, both ways. (u, v) are continuous image coordinates in the renderer's
+// convention: pixel (i, j) has its centre at (i + 0.5, j + 0.5).
+class Pinhole {
+ public:
+  Pinhole(const CameraModel& camera, const Eigen::Isometry3d& world_from_camera)
+      : c_(camera), wc_(world_from_camera) {}
+
+  Eigen::Vector3d rayWorld(double u, double v) const {
+    return wc_.linear() * Eigen::Vector3d((u - c_.cx) / c_.fx, (v - c_.cy) / c_.fy, 1.0);
+  }
+  /// Where the ray through (u, v) meets the horizontal plane at height z (in front of the camera only).
+  bool toPlane(double u, double v, double z, Eigen::Vector3d& out) const {
+    const Eigen::Vector3d d = rayWorld(u, v);
+    const Eigen::Vector3d o = wc_.translation();
+    if (std::fabs(d.z()) < 1e-12) return false;
+    const double s = (z - o.z()) / d.z();
+    if (!(s > 0)) return false;
+    out = o + s * d;
+    return true;
+  }
+  /// Camera-frame depth (optical z) of a world point.
+  double depth(const Eigen::Vector3d& world) const { return (wc_.inverse() * world).z(); }
+  const Eigen::Isometry3d& pose() const { return wc_; }
+
+ private:
+  const CameraModel& c_;
+  Eigen::Isometry3d wc_;
+};
+
+// OpenCV pixel indices -> renderer continuous coordinates.
+cv::Point2d toRenderer(const cv::Point2d& p) { return {p.x + 0.5, p.y + 0.5}; }
+
+// The largest outer contour of a binary mask (by enclosed area, ties by length), or empty.
+std::vector<cv::Point> largestContour(const cv::Mat& mask, const cv::Point& offset = cv::Point()) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, offset);
+  std::vector<cv::Point>* best = nullptr;
+  double best_score = -1;
+  for (auto& c : contours) {
+    const double score = cv::contourArea(c) + 0.5 * c.size();  // thin blobs still rank above nothing
+    if (score > best_score) {
+      best_score = score;
+      best = &c;
+    }
+  }
+  return best ? *best : std::vector<cv::Point>();
+}
+
+// A blob: one contour of a class mask, its filled pixels (within the ROI) and stats.
+struct Blob {
+  std::vector<cv::Point> contour;  // full-image OpenCV coordinates
+  cv::Rect roi;                    // bounding box of the contour
+  cv::Mat mask;                    // CV_8U, roi-sized: class pixels inside the contour
+  int pixels = 0;
+  cv::Point2d centroid;            // renderer convention, full image
+  bool touches_border = false;
+};
+
+bool makeBlob(const cv::Mat& class_mask, double min_pixels, Blob& blob) {
+  blob.contour = largestContour(class_mask);
+  if (blob.contour.empty()) return false;
+  blob.roi = cv::boundingRect(blob.contour);
+  cv::Mat filled = cv::Mat::zeros(blob.roi.size(), CV_8U);
+  cv::drawContours(filled, std::vector<std::vector<cv::Point>>{blob.contour}, 0, cv::Scalar(255), cv::FILLED,
+                   cv::LINE_8, cv::noArray(), 0, -blob.roi.tl());
+  cv::bitwise_and(filled, class_mask(blob.roi), blob.mask);
+  const cv::Moments m = cv::moments(blob.mask, true);
+  blob.pixels = static_cast<int>(m.m00);
+  if (blob.pixels < min_pixels) return false;
+  blob.centroid = toRenderer({m.m10 / m.m00 + blob.roi.x, m.m01 / m.m00 + blob.roi.y});
+  blob.touches_border = blob.roi.x == 0 || blob.roi.y == 0 || blob.roi.br().x == class_mask.cols ||
+                        blob.roi.br().y == class_mask.rows;
+  return true;
+}
+
+// The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as
+// the brightest one. Returns a roi-sized mask.
+cv::Mat brightestShade(const Blob& blob, const cv::Mat& brightness, double fraction) {
+  double max_value = 0;
+  cv::minMaxLoc(brightness(blob.roi), nullptr, &max_value, nullptr, nullptr, blob.mask);
+  cv::Mat top;
+  cv::compare(brightness(blob.roi), fraction * max_value, top, cv::CMP_GE);
+  cv::bitwise_and(top, blob.mask, top);
+  return top;
+}
+
+struct Line {
+  cv::Point2d p, d;  // a point and a unit direction
+};
+
+bool intersect(const Line& a, const Line& b, cv::Point2d& out) {
+  const double det = a.d.x * b.d.y - a.d.y * b.d.x;
+  if (std::fabs(det) < 1e-3) return false;  // (nearly) parallel
+  const cv::Point2d w = b.p - a.p;
+  const double t = (w.x * b.d.y - w.y * b.d.x) / det;
+  out = a.p + t * a.d;
+  return true;
+}
+
+/**
+ * The four corners (OpenCV coordinates, in order around) of the quadrilateral a contour outlines, with
+ * sub-pixel edges: the contour is split into the four sides of its minimum-area rectangle, each side's points
+ * (away from the corners) get a least-squares line, and adjacent lines are intersected. The contour runs
+ * through the centres of the outermost pixels, which lie on average max(|nx|, |ny|) / 2 pixels inside the
+ * true edge (n its normal), so each line is moved out by that much.
+ */
+std::array<cv::Point2d, 4> fitQuadrilateral(const std::vector<cv::Point>& contour) {
+  const cv::RotatedRect rect = cv::minAreaRect(contour);
+  cv::Point2f rp[4];
+  rect.points(rp);
+  std::array<cv::Point2d, 4> rect_corners;
+  for (int k = 0; k < 4; ++k) rect_corners[k] = rp[k];
+  std::array<std::vector<cv::Point2f>, 4> sides;
+  for (const cv::Point& q : contour) {
+    int best = -1;
+    double best_dist = std::numeric_limits<double>::max(), best_t = 0, best_len = 0;
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point2d a = rect_corners[k], b = rect_corners[(k + 1) % 4];
+      const cv::Point2d ab = b - a;
+      const double len = std::sqrt(ab.dot(ab));
+      if (len < 1e-9) continue;
+      const double t = (cv::Point2d(q) - a).dot(ab) / (len * len);
+      const cv::Point2d closest = a + std::clamp(t, 0.0, 1.0) * ab;
+      const cv::Point2d diff = cv::Point2d(q) - closest;
+      const double dist = std::sqrt(diff.dot(diff));
+      if (dist < best_dist) {
+        best_dist = dist;
+        best = k;
+        best_t = t;
+        best_len = len;
+      }
+    }
+    if (best < 0) continue;
+    const double margin = std::max(1.5, 0.15 * best_len);  // corners are rounded by the pixel grid
+    if (best_t * best_len < margin || (1 - best_t) * best_len < margin) continue;
+    sides[best].emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+  }
+  const cv::Point2d centre = rect.center;
+  std::array<Line, 4> lines;
+  for (int k = 0; k < 4; ++k) {
+    Line line;
+    if (sides[k].size() >= 3) {
+      cv::Vec4f f;
+      cv::fitLine(sides[k], f, cv::DIST_L2, 0, 0.001, 0.001);
+      line.d = {f[0], f[1]};
+      line.p = {f[2], f[3]};
+    } else {  // too few points: keep the rectangle's side
+      line.p = rect_corners[k];
+      const cv::Point2d ab = rect_corners[(k + 1) % 4] - rect_corners[k];
+      line.d = ab * (1.0 / std::max(1e-9, std::sqrt(ab.dot(ab))));
+    }
+    cv::Point2d n(line.d.y, -line.d.x);
+    if ((line.p - centre).dot(n) < 0) n = -n;  // outward
+    line.p += n * (0.5 * std::max(std::fabs(n.x), std::fabs(n.y)));
+    lines[k] = line;
+  }
+  std::array<cv::Point2d, 4> corners;
+  for (int k = 0; k < 4; ++k) {
+    // Corner k of the rectangle is where side k-1 ends and side k begins.
+    if (!intersect(lines[(k + 3) % 4], lines[k], corners[k])) return rect_corners;
+  }
+  return corners;
+}
+
+double wrapPi(double a) { return foldAngle(a, 2 * M_PI); }
+
+std::string checkPose(const Eigen::Isometry3d& pose) {
+  const Eigen::Matrix4d& m = pose.matrix();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      if (!std::isfinite(m(r, c))) {
+        return "world_from_camera has a non-finite entry (" + describeNumber(m(r, c)) + " at row " +
+               std::to_string(r) + ", column " + std::to_string(c) + "); it must be a finite rigid transform";
+      }
+    }
+  }
+  const Eigen::Matrix3d rot = pose.linear();
+  const double err = (rot.transpose() * rot - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (err > 1e-6 || rot.determinant() < 0) {
+    return "world_from_camera is not a rigid transform (its rotation part is not orthonormal with determinant "
+           "+1)";
+  }
+  return "";
+}
+
+}  // namespace
+
+double foldAngle(double yaw, double period) {
+  double a = std::fmod(yaw, period);
+  if (a > period / 2) a -= period;
+  if (a <= -period / 2) a += period;
+  return a;
+}
+
+// ---- catalogue --------------------------------------------------------------------------------------
+
+const ObjectAppearance* PerceptionCatalogue::find(const std::string& name) const {
+  for (const auto& o : objects) {
+    if (o.name == name) return &o;
+  }
+  return nullptr;
+}
+
+PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene, const std::string& robot_root) {
+  PerceptionCatalogue cat;
+  const FrameTransforms world = worldTransforms(scene);
+  std::set<const Visual*> used;
+  for (const SceneNode& node : scene.nodes) {
+    if (node.parent != scene.world_frame || !node.dynamic || node.visuals.size() != 1) continue;
+    const Visual& v = node.visuals.front();
+    if (v.shape.type != Shape::Type::Box || node.name == robot_root) continue;
+    cat.objects.push_back({node.name, v.color, v.shape.box_size});
+    used.insert(&v);
+  }
+
+  if (const SceneNode* root = scene.findNode(robot_root)) {
+    const Visual* body = nullptr;
+    for (const Visual& v : root->visuals) {
+      if (v.shape.type == Shape::Type::Cylinder) {
+        body = &v;
+        break;
+      }
+    }
+    if (!body) {
+      throw ValidationError("robot root '" + robot_root +
+                            "' has no cylinder visual; the perception catalogue needs the robot's body disc");
+    }
+    RobotAppearance& r = cat.robot;
+    r.present = true;
+    r.name = robot_root;
+    r.body_color = body->color;
+    r.body_radius = body->shape.radius;
+    const Eigen::Isometry3d world_root = world.at(robot_root);
+    const Eigen::Isometry3d world_body = world_root * body->offset;
+    r.body_top = world_body.translation().z() + 0.5 * body->shape.length;
+    used.insert(body);
+
+    // Descendants of the root, in scene order (parents come first).
+    std::set<std::string> family{robot_root};
+    const SceneNode* marker_node = nullptr;
+    const Visual* marker = nullptr;
+    for (const SceneNode& node : scene.nodes) {
+      if (!family.count(node.parent)) continue;
+      family.insert(node.name);
+      if (node.visuals.size() != 1 || node.visuals.front().shape.type != Shape::Type::Box) continue;
+      if (!marker_node || (node.name == "camera_link" && marker_node->name != "camera_link")) {
+        marker_node = &node;
+        marker = &node.visuals.front();
+      }
+    }
+    if (marker) {
+      const Eigen::Isometry3d world_marker = world.at(marker_node->name) * marker->offset;
+      r.marker_color = marker->color;
+      r.marker_size = marker->shape.box_size;
+      r.marker_offset = world_root.inverse() * world_marker.translation();
+      r.marker_top = world_marker.translation().z() + 0.5 * marker->shape.box_size.z();
+      used.insert(marker);
+    } else {
+      r.marker_size = Eigen::Vector3d::Zero();  // no marker: the heading stays unknown
+    }
+  }
+
+  for (const SceneNode& node : scene.nodes) {
+    for (const Visual& v : node.visuals) {
+      if (!used.count(&v)) cat.other_colors.push_back(v.color);
+    }
+  }
+  return cat;
+}
+
+// ---- extractor --------------------------------------------------------------------------------------
+
+FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera, PerceptionOptions options)
+    : catalogue_(std::move(catalogue)), camera_(std::move(camera)), options_(options) {
+  if (camera_.width <= 0 || camera_.height <= 0) {
+    throw ValidationError("camera '" + camera_.name + "' has size " + std::to_string(camera_.width) + " x " +
+                          std::to_string(camera_.height) + "; width and height must be positive");
+  }
+  requirePositive("camera.fx", camera_.fx);
+  requirePositive("camera.fy", camera_.fy);
+  requireFinite("camera.cx", camera_.cx);
+  requireFinite("camera.cy", camera_.cy);
+  requireInRange("options.max_downward_tilt", options_.max_downward_tilt, 0, M_PI / 2);
+  requireInRange("options.min_brightness", options_.min_brightness, 0, 765);
+  requireInRange("options.max_chroma_tolerance", options_.max_chroma_tolerance, 0.005, 0.5);
+  requireInRange("options.min_blob_pixels", options_.min_blob_pixels, 1, 1e9);
+  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1);
+  requireInRange("options.min_top_fraction", options_.min_top_fraction, 0, 1);
+  if (options_.morphology_kernel < 1 || options_.morphology_kernel % 2 == 0 || options_.morphology_kernel > 15) {
+    throw ValidationError("options.morphology_kernel is " + std::to_string(options_.morphology_kernel) +
+                          "; it must be an odd number from 1 to 15");
+  }
+
+  // Every colour in view with a name for error messages; the first `classes` are the ones looked for.
+  struct Known {
+    std::string name;
+    Rgba color;
+  };
+  std::vector<Known> known;
+  std::set<std::string> names;
+  for (const auto& o : catalogue_.objects) {
+    requireIdentifier("catalogue object name", o.name);
+    if (!names.insert(o.name).second) {
+      throw ValidationError("catalogue object '" + o.name + "' appears twice; names must be unique");
+    }
+    for (int i = 0; i < 3; ++i) requirePositive("size of catalogue object '" + o.name + "'", o.size[i]);
+    known.push_back({"object '" + o.name + "'", o.color});
+  }
+  const RobotAppearance& r = catalogue_.robot;
+  if (r.present) {
+    requirePositive("robot.body_radius", r.body_radius);
+    requireFinite("robot.body_top", r.body_top);
+    known.push_back({"the robot's body", r.body_color});
+    if (r.marker_size.minCoeff() > 0) known.push_back({"the robot's marker", r.marker_color});
+  }
+  const std::size_t looked_for = known.size();
+  for (const Rgba& c : catalogue_.other_colors) known.push_back({"another visual of the scene", c});
+  const cv::Vec3b bg = RenderOptions().background_bgr;
+  known.push_back({"the background", Rgba{bg[2] / 255.0f, bg[1] / 255.0f, bg[0] / 255.0f, 1}});
+
+  for (std::size_t i = 0; i < looked_for; ++i) {
+    const cv::Vec3f ci = chromaOf(known[i].color);
+    float nearest = std::numeric_limits<float>::max();
+    std::size_t nearest_j = 0;
+    for (std::size_t j = 0; j < known.size(); ++j) {
+      if (j == i) continue;
+      const float d = chebyshev(ci, chromaOf(known[j].color));
+      if (d < nearest) {
+        nearest = d;
+        nearest_j = j;
+      }
+    }
+    const float tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), nearest / 2);
+    if (tolerance < 0.01f) {
+      throw ValidationError("the colour of " + known[i].name + " " + describeColor(known[i].color) +
+                            " is too close to that of " + known[nearest_j].name + " " +
+                            describeColor(known[nearest_j].color) +
+                            " to tell them apart by colour (identity is by colour)");
+    }
+    std::string name = i < catalogue_.objects.size() ? catalogue_.objects[i].name
+                       : (i == catalogue_.objects.size() ? std::string("robot_body") : std::string("robot_marker"));
+    classes_.push_back({name, ci, tolerance});
+  }
+}
+
+bool FeatureExtractor::isDownward(const Eigen::Isometry3d& world_from_camera) const {
+  const Eigen::Vector3d axis = world_from_camera.linear().col(2).normalized();
+  return std::acos(std::clamp(-axis.z(), -1.0, 1.0)) <= options_.max_downward_tilt;
+}
+
+Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d& world_from_camera) const {
+  if (bgr.empty()) throw ValidationError("the image is empty; expected a " + std::to_string(camera_.width) + " x " +
+                                         std::to_string(camera_.height) + " BGR image (CV_8UC3)");
+  if (bgr.type() != CV_8UC3) {
+    throw ValidationError("the image has " + std::to_string(bgr.channels()) + " channel(s) of depth code " +
+                          std::to_string(bgr.depth()) + "; expected 8-bit BGR (CV_8UC3)");
+  }
+  if (bgr.cols != camera_.width || bgr.rows != camera_.height) {
+    throw ValidationError("the image is " + std::to_string(bgr.cols) + " x " + std::to_string(bgr.rows) +
+                          " pixels; camera '" + camera_.name + "' gives " + std::to_string(camera_.width) + " x " +
+                          std::to_string(camera_.height));
+  }
+  throwIfInvalid(checkPose(world_from_camera));
+
+  Detections out;
+  out.world_from_camera = world_from_camera;
+  out.downward = isDownward(world_from_camera);
+  const Pinhole cam(camera_, world_from_camera);
+
+  // Brightness (b + g + r) and chromaticity, per pixel.
+  cv::Mat bgr_f, brightness, chroma;
+  bgr.convertTo(bgr_f, CV_32FC3);
+  cv::transform(bgr_f, brightness, cv::Matx13f(1, 1, 1));
+  cv::Mat inv;
+  cv::divide(1.0, cv::max(brightness, 1.0f), inv);
+  cv::Mat inv3;
+  cv::merge(std::vector<cv::Mat>{inv, inv, inv}, inv3);
+  cv::multiply(bgr_f, inv3, chroma);
+  cv::Mat lit;
+  cv::compare(brightness, options_.min_brightness, lit, cv::CMP_GE);
+  const cv::Mat kernel = options_.morphology_kernel > 1
+                             ? cv::getStructuringElement(cv::MORPH_ELLIPSE,
+                                                         {options_.morphology_kernel, options_.morphology_kernel})
+                             : cv::Mat();
+  auto classMask = [&](const ColorClass& c) {
+    cv::Mat mask;
+    const cv::Scalar lo(c.chroma[0] - c.tolerance, c.chroma[1] - c.tolerance, c.chroma[2] - c.tolerance);
+    const cv::Scalar hi(c.chroma[0] + c.tolerance, c.chroma[1] + c.tolerance, c.chroma[2] + c.tolerance);
+    cv::inRange(chroma, lo, hi, mask);
+    cv::bitwise_and(mask, lit, mask);
+    if (!kernel.empty()) cv::morphologyEx(mask, mask, cv::MORPH_OPEN, kernel);
+    return mask;
+  };
+
+  for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
+    const ObjectAppearance& obj = catalogue_.objects[i];
+    Blob blob;
+    if (!makeBlob(classMask(classes_[i]), options_.min_blob_pixels, blob)) {
+      out.missing.push_back(obj.name);
+      continue;
+    }
+    ObjectDetection det;
+    det.name = obj.name;
+    det.centroid = blob.centroid;
+    det.pixel_area = blob.pixels;
+    det.contour = blob.contour;
+    const double sx = obj.size.x(), sy = obj.size.y(), sz = obj.size.z();
+    bool ok = false;
+    if (out.downward) {
+      const cv::Mat top = brightestShade(blob, brightness, options_.top_face_brightness);
+      det.top_contour = largestContour(top, blob.roi.tl());
+      const int top_pixels = cv::countNonZero(top);
+      ok = det.top_contour.size() >= 4;
+      if (ok) {  // a top face cut by the image border cannot be measured
+        const cv::Rect r = cv::boundingRect(det.top_contour);
+        ok = r.x > 0 && r.y > 0 && r.br().x < bgr.cols && r.br().y < bgr.rows;
+      }
+      std::array<Eigen::Vector3d, 4> corners;
+      if (ok) {
+        const std::array<cv::Point2d, 4> quad = fitQuadrilateral(det.top_contour);
+        for (int k = 0; k < 4 && ok; ++k) {
+          const cv::Point2d p = toRenderer(quad[k]);
+          ok = cam.toPlane(p.x, p.y, sz, corners[k]);
+        }
+      }
+      if (ok) {
+        det.top_corners.assign(corners.begin(), corners.end());
+        const Eigen::Vector3d top_centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+        // Pixels the top face should cover if whole: its area over one pixel's footprint at its depth.
+        const double depth = cam.depth(top_centre);
+        const double expected_pixels = sx * sy * camera_.fx * camera_.fy / (depth * depth);
+        ok = depth > 0 && top_pixels >= options_.min_top_fraction * expected_pixels;  // else occluded or cut
+        det.position = top_centre - Eigen::Vector3d(0, 0, 0.5 * sz);
+        // Side lengths and directions: edges 0-1 and 2-3 are one pair, 1-2 and 3-0 the other.
+        const Eigen::Vector3d e[4] = {corners[1] - corners[0], corners[2] - corners[1], corners[3] - corners[2],
+                                      corners[0] - corners[3]};
+        const double len_a = 0.5 * (e[0].head<2>().norm() + e[2].head<2>().norm());
+        const double len_b = 0.5 * (e[1].head<2>().norm() + e[3].head<2>().norm());
+        // Each edge's direction, turned onto the first pair's direction (modulo pi).
+        double angles[4];
+        for (int k = 0; k < 4; ++k) angles[k] = std::atan2(e[k].y(), e[k].x()) - (k % 2 ? M_PI / 2 : 0);
+        const bool square = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy);
+        det.yaw_period = square ? M_PI / 2 : M_PI;
+        // The box's x side is its longer one (or the first if square): which measured pair is that?
+        double offset = 0;
+        if (!square && ((sx > sy) != (len_a >= len_b))) offset = M_PI / 2;
+        const double factor = 2 * M_PI / det.yaw_period;
+        double c = 0, s = 0;
+        for (int k = 0; k < 4; ++k) {
+          c += std::cos(factor * angles[k]);
+          s += std::sin(factor * angles[k]);
+        }
+        det.yaw = foldAngle(std::atan2(s, c) / factor + offset, det.yaw_period);
+        det.yaw_known = true;
+        det.measured_length = std::max(len_a, len_b);
+        det.measured_width = std::min(len_a, len_b);
+        const double ratio = (len_a * len_b) / (sx * sy);
+        det.confidence = std::min(ratio, 1 / ratio);
+      }
+    } else {
+      // Ground contact: the lowest row of the blob touches the floor.
+      int row = -1;
+      for (int j = blob.mask.rows - 1; j >= 0 && row < 0; --j) {
+        if (cv::countNonZero(blob.mask.row(j)) > 0) row = j;
+      }
+      const int image_row = row + blob.roi.y;
+      ok = row >= 0 && image_row < bgr.rows - 1;  // a blob cut at the bottom hides its contact point
+      Eigen::Vector3d ground;
+      if (ok) {
+        double sum = 0;
+        int n = 0;
+        for (int i2 = 0; i2 < blob.mask.cols; ++i2) {
+          if (blob.mask.at<uchar>(row, i2)) {
+            sum += i2;
+            ++n;
+          }
+        }
+        // The contact edge lies within the lowest covered row's lower half-pixel band on average.
+        const double u = sum / n + blob.roi.x + 0.5, v = image_row + 1.0;
+        ok = cam.toPlane(u, v, 0.0, ground);
+      }
+      if (ok) {
+        Eigen::Vector2d horizontal = (ground - world_from_camera.translation()).head<2>();
+        ok = horizontal.norm() > 1e-9;
+        if (ok) {
+          horizontal.normalize();
+          const double half = 0.25 * (sx + sy);
+          det.position = Eigen::Vector3d(ground.x() + half * horizontal.x(), ground.y() + half * horizontal.y(),
+                                         0.5 * sz);
+          det.yaw_known = false;
+          det.yaw = 0;
+          det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
+          const double depth = cam.depth(ground);
+          det.measured_length = blob.roi.width * depth / camera_.fx;
+          det.measured_width = blob.roi.height * depth / camera_.fy;
+          const double ratio = det.measured_width / sz;
+          det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
+        }
+      }
+    }
+    if (ok) {
+      out.objects.emplace(obj.name, std::move(det));
+    } else {
+      out.missing.push_back(obj.name);
+    }
+  }
+
+  // The robot, from above: the centre of its body's top disc, the heading from the marker.
+  const RobotAppearance& robot = catalogue_.robot;
+  if (robot.present && out.downward) {
+    const std::size_t body_class = catalogue_.objects.size();
+    Blob body;
+    if (makeBlob(classMask(classes_[body_class]), options_.min_blob_pixels, body)) {
+      cv::Mat disc = brightestShade(body, brightness, options_.top_face_brightness);
+      cv::Mat marker_mask;
+      const bool has_marker = classes_.size() > body_class + 1;
+      if (has_marker) {
+        marker_mask = classMask(classes_[body_class + 1]);
+        // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
+        cv::Mat grown;
+        cv::dilate(marker_mask(body.roi), grown, cv::Mat());
+        cv::bitwise_or(disc, grown, disc);
+      }
+      const std::vector<cv::Point> outline = largestContour(disc, body.roi.tl());
+      Eigen::Vector3d centre;
+      if (outline.size() >= 3) {
+        const cv::Moments m = cv::moments(outline);
+        if (m.m00 > 0) {
+          const cv::Point2d c = toRenderer({m.m10 / m.m00, m.m01 / m.m00});
+          if (cam.toPlane(c.x, c.y, robot.body_top, centre)) {
+            RobotDetection& r = out.robot;
+            r.found = true;
+            r.x = centre.x();
+            r.y = centre.y();
+            r.centroid = body.centroid;
+            r.pixel_area = body.pixels;
+            r.contour = body.contour;
+            const double depth = cam.depth(centre);
+            const double disc_area = m.m00 * depth * depth / (camera_.fx * camera_.fy);
+            const double ratio = disc_area / (M_PI * robot.body_radius * robot.body_radius);
+            r.confidence = std::min(ratio, 1 / ratio);
+          }
+        }
+      }
+      if (out.robot.found && has_marker) {
+        // The marker blob nearest the body: its top face's centre, on the plane of the marker's top.
+        const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
+        std::vector<std::vector<cv::Point>> contours;
+        cv::findContours(marker_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+        double best = std::numeric_limits<double>::max();
+        Eigen::Vector3d marker_world;
+        bool seen = false;
+        for (const auto& c : contours) {
+          Blob mb;
+          mb.contour = c;
+          mb.roi = cv::boundingRect(c);
+          cv::Mat filled = cv::Mat::zeros(mb.roi.size(), CV_8U);
+          cv::drawContours(filled, std::vector<std::vector<cv::Point>>{c}, 0, cv::Scalar(255), cv::FILLED, cv::LINE_8,
+                           cv::noArray(), 0, -mb.roi.tl());
+          cv::bitwise_and(filled, marker_mask(mb.roi), mb.mask);
+          if (cv::countNonZero(mb.mask) == 0) continue;
+          const cv::Mat top = brightestShade(mb, brightness, options_.top_face_brightness);
+          const cv::Moments m = cv::moments(top, true);
+          if (m.m00 <= 0) continue;
+          const cv::Point2d p = toRenderer({m.m10 / m.m00 + mb.roi.x, m.m01 / m.m00 + mb.roi.y});
+          Eigen::Vector3d w;
+          if (!cam.toPlane(p.x, p.y, robot.marker_top, w)) continue;
+          const double d = std::hypot(w.x() - out.robot.x, w.y() - out.robot.y);
+          if (d < reach && d < best) {
+            best = d;
+            marker_world = w;
+            seen = true;
+          }
+        }
+        if (seen && robot.marker_offset.head<2>().norm() > 1e-6) {
+          const double seen_angle = std::atan2(marker_world.y() - out.robot.y, marker_world.x() - out.robot.x);
+          out.robot.yaw = wrapPi(seen_angle - std::atan2(robot.marker_offset.y(), robot.marker_offset.x()));
+          out.robot.yaw_known = true;
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace xpersif::core
