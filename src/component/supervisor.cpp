@@ -267,6 +267,7 @@ void Supervisor::onStatus(const std::string& name, const ComponentStatus::ConstP
     if (!observed.lost) observed.message = status->last_error;
   }
   if (!newly_failed.empty()) supervisionEvent(name, "failed", name + " is in ERROR: " + newly_failed);
+  onComponentStatus(name, *status);
 }
 
 void Supervisor::monitorLoop() {

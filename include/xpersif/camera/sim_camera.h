@@ -6,7 +6,7 @@
  *        without a copy.
  *
  * Parameters (configure): `~camera` (a camera of the scene, e.g. overhead or robot_camera; required),
- * `~rate` (Hz, default 30), `~scene_topic` (latched scene, default /xpersim/scene),
+ * `~rate` (Hz, default 30), `~scene_topic` (latched scene, default xpersim/scene, resolved in the component's namespace),
  * `~report_buffer_address` (default false; publishes `~buffer_address` for the zero-copy test).
  * Publishes `~image_raw` (sensor_msgs/Image, bgr8) and `~camera_info`.
  */
@@ -18,8 +18,7 @@
 #include <mutex>
 
 #include "xpersif/component/component.h"
-#include "xpersif/core/renderer.h"
-#include "xpersif/ros/scene_tracker.h"
+#include "xpersif/camera/rendered_camera.h"
 
 namespace xpersif {
 
@@ -35,12 +34,9 @@ class SimCamera : public Component {
 
  private:
   void renderAndPublish();
-  void onScene();
 
   std::mutex mutex_;
-  std::unique_ptr<SceneTracker> tracker_;
-  std::unique_ptr<core::Renderer> renderer_;
-  core::CameraModel camera_;
+  std::unique_ptr<RenderedCamera> camera_;
   double rate_ = 30.0;
   bool report_address_ = false;
   std::uint32_t seq_ = 0;

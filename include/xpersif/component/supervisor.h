@@ -67,6 +67,11 @@ class Supervisor : public Component {
     (void)reason;
   }
   virtual void onComponentRestarted(const SupervisedComponent& component) { (void)component; }
+  /// Every status heard from a supervised component (subscriber thread; keep it short).
+  virtual void onComponentStatus(const std::string& name, const ComponentStatus& status) {
+    (void)name;
+    (void)status;
+  }
 
   const std::vector<SupervisedComponent>& supervised() const { return components_; }
   /// Last state heard from @p name (UNCONFIGURED if never heard).

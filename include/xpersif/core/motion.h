@@ -23,11 +23,9 @@
 #include <string>
 #include <vector>
 
-namespace xpersif::core {
+#include "xpersif/core/pose2d.h"
 
-struct Pose2D {
-  double x = 0, y = 0, yaw = 0;
-};
+namespace xpersif::core {
 
 struct Velocity2D {
   double linear = 0;   ///< m/s along the robot's heading (negative: backwards)

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "xpersif/core/perception.h"
+#include "xpersif/core/pose2d.h"
 
 namespace xpersif::core {
 
@@ -67,11 +68,6 @@ class FeatureSelection {
 /// Inner extents of the rectangular arena, centred on the world origin (ArenaSpec::size_x, size_y).
 struct ArenaExtents {
   double size_x = 0.9, size_y = 0.6;
-};
-
-/// A planar pose (m, m, rad).
-struct Pose2D {
-  double x = 0, y = 0, yaw = 0;
 };
 
 /// VISION: feature values per detected object.

@@ -1,0 +1,36 @@
+/**
+ * @file embodiment_setup.h
+ * @brief What the embodiment's components know about the experimental set-up: the arena, the robot's
+ *        footprint and speed limits, the objects and their sizes. Read from the same world file XPERSim
+ *        runs (the `world` parameter of the component's namespace), so that nothing is configured twice;
+ *        a physical set-up would give the same facts in a world file of its own.
+ */
+#pragma once
+
+#include <ros/ros.h>
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "xpersif/core/motion.h"
+
+namespace xpersif {
+
+struct EmbodimentSetup {
+  std::string world_file;
+  core::ArenaGeometry arena;
+  double robot_radius = 0.035;
+  double max_wheel_speed = 0.5;  ///< m/s at the rim
+  double wheel_separation = 0.053;
+  std::map<std::string, double> object_sizes;  ///< name -> edge length of its (cubic) footprint, m
+  std::vector<std::string> objectNames() const;
+};
+
+/**
+ * @brief Read the set-up from the world file named by the `world` parameter (searched upwards from
+ *        @p nh's namespace). @throws std::runtime_error with a sentence when it is not set or unusable
+ */
+EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh);
+
+}  // namespace xpersif

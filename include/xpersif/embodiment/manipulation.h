@@ -1,0 +1,58 @@
+/**
+ * @file manipulation.h
+ * @brief MANIPULATION: the push command — approach, contact, push, retreat — on an object that OBSERVATION
+ *        sees, closed loop on the robot's pose (odometry, or odometry corrected by the overhead camera).
+ *
+ * The robot model (a Khepera without a gripper) has no grip or release: `~has_gripper` is false, so those
+ * commands are not offered, and ROBOTMODEL reports that it holds nothing.
+ *
+ * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
+ * `~margin` (m, 0.01), `~observation_topic` (observation/features), `~observation_max_age` (s, 2: how old
+ * the object's last sighting may be), `~settle_time` (s, 0.3: wait after the retreat before the final
+ * observation), and the `world` file (embodiment_setup.h).
+ */
+#pragma once
+
+#include <geometry_msgs/Twist.h>
+
+#include <memory>
+#include <mutex>
+
+#include "xpersif/PushAction.h"
+#include "xpersif/component/component.h"
+#include "xpersif/embodiment/embodiment_setup.h"
+#include "xpersif/embodiment/robot_pose_source.h"
+
+namespace xpersif {
+
+class Manipulation : public Component {
+ public:
+  Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+  using Push = CommandServer<PushAction>;
+
+ protected:
+  void onConfigure() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+
+ private:
+  /// Plan the push from the current state: "" and the plan (and the approach path), or why it cannot be done.
+  std::string planFor(const PushGoal& goal, core::PushPlan* plan, core::PathResult* path) const;
+  /// The object as last observed: "" or why it is not known.
+  std::string observedObject(const std::string& name, double max_age, core::BoxObstacle* object) const;
+  CommandOutcome push(Push::Context& context, PushResult& result);
+  void publishVelocity(const core::Velocity2D& velocity);
+
+  mutable std::mutex mutex_;
+  EmbodimentSetup setup_;
+  core::MotionLimits limits_;
+  double control_period_ = 0.02;
+  double margin_ = 0.01;
+  double observation_max_age_ = 2.0;
+  double settle_time_ = 0.3;
+  std::unique_ptr<RobotPoseSource> pose_source_;
+  ros::Publisher cmd_vel_pub_;
+};
+
+}  // namespace xpersif

@@ -1,0 +1,69 @@
+/**
+ * @file relocation.h
+ * @brief RELOCATION: the commands that move the robot — go to a pose (around the objects OBSERVATION
+ *        sees), turn to a heading — and the operations set_max_velocity and stop.
+ *
+ * Closed loop at `~control_rate` Hz of ROS (simulated) time on wheel odometry, or on odometry corrected
+ * by the overhead camera when a goal asks for pose_source "observation". Velocity goes out on `cmd_vel`.
+ * A cancel, the stop operation or a deactivation sends a zero velocity at once (within one control
+ * period) and ends the goal.
+ *
+ * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
+ * `~position_tolerance` (m, 0.005), `~yaw_tolerance` (rad, 0.026), `~margin` (m kept from walls and objects,
+ * 0.01), `~observation_topic` (observation/features), `~obstacle_max_age` (s, 5), and the `world` file
+ * (embodiment_setup.h).
+ */
+#pragma once
+
+#include <geometry_msgs/Twist.h>
+#include <std_srvs/Trigger.h>
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+
+#include "xpersif/GoToPoseAction.h"
+#include "xpersif/SetMaxVelocity.h"
+#include "xpersif/TurnToAction.h"
+#include "xpersif/component/component.h"
+#include "xpersif/embodiment/embodiment_setup.h"
+#include "xpersif/embodiment/robot_pose_source.h"
+
+namespace xpersif {
+
+class Relocation : public Component {
+ public:
+  Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+  using GoToPose = CommandServer<GoToPoseAction>;
+  using TurnTo = CommandServer<TurnToAction>;
+
+ protected:
+  void onConfigure() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+
+ private:
+  /// The path to @p target from the current pose: "" and the plan, or why there is none.
+  std::string planTo(const GoToPoseGoal& goal, core::PathResult* path) const;
+  CommandOutcome goTo(GoToPose::Context& context, GoToPoseResult& result);
+  CommandOutcome turnTo(TurnTo::Context& context, TurnToResult& result);
+  void publishVelocity(const core::Velocity2D& velocity);
+  core::MotionLimits limits() const;
+
+  mutable std::mutex mutex_;
+  EmbodimentSetup setup_;
+  core::MotionLimits limits_;
+  core::GoToPoseOptions options_;
+  double control_period_ = 0.02;
+  double margin_ = 0.01;
+  double obstacle_max_age_ = 5.0;
+  std::atomic<std::uint64_t> stop_generation_{0};  // bumped by the stop operation
+  std::unique_ptr<RobotPoseSource> pose_source_;
+  ros::Publisher cmd_vel_pub_;
+};
+
+/// "(x, y, yaw)" with a few decimals, for contract bindings and messages.
+std::string describePose(double x, double y, double yaw);
+
+}  // namespace xpersif

@@ -1,0 +1,54 @@
+/**
+ * @file robot_pose_source.h
+ * @brief Where the embodiment's commands get the robot's pose and the obstacles from: wheel odometry
+ *        (`odom`), optionally corrected by the overhead camera (OBSERVATION's `features`), and the objects
+ *        as OBSERVATION last saw them. Never the simulator's ground truth. Thread-safe.
+ */
+#pragma once
+
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "xpersif/FeatureVector.h"
+#include "xpersif/core/motion.h"
+#include "xpersif/core/pose_estimate.h"
+
+namespace xpersif {
+
+class RobotPoseSource {
+ public:
+  /// Subscribes to @p odom_topic and @p observation_topic (resolved in @p nh's namespace).
+  RobotPoseSource(ros::NodeHandle nh, const std::string& odom_topic, const std::string& observation_topic);
+
+  /// "" and the pose, or why there is none. @p source: "odometry" (or "") or "observation".
+  std::string pose(const std::string& source, core::Pose2D* pose) const;
+  /// "" when @p source is a known pose source.
+  static std::string checkSource(const std::string& source);
+  /// Latest speeds from odometry.
+  void velocity(double* linear, double* angular) const;
+  bool hasOdometry() const;
+  /// The latest observation, if one arrived less than @p max_age seconds (ROS time) ago (0: any age).
+  std::optional<FeatureVector> observation(double max_age = 0) const;
+  /// The objects of the latest observation as obstacles (sizes from @p sizes; unknown names are skipped).
+  std::vector<core::BoxObstacle> obstacles(const std::map<std::string, double>& sizes, double max_age = 0) const;
+  /// Seconds (ROS time) since the last odometry message (infinity before the first).
+  double odometryAge() const;
+
+ private:
+  void onOdometry(const nav_msgs::Odometry::ConstPtr& odom);
+  void onObservation(const FeatureVector::ConstPtr& features);
+
+  mutable std::mutex mutex_;
+  core::OdometryCorrection correction_;
+  double linear_ = 0, angular_ = 0;
+  ros::Time last_odometry_;
+  FeatureVector::ConstPtr observation_;
+  ros::Subscriber odom_sub_, observation_sub_;  // last: destroyed first
+};
+
+}  // namespace xpersif

@@ -1,0 +1,58 @@
+/**
+ * @file observation.h
+ * @brief OBSERVATION (aggregate): the overhead camera as a service to the robot (where everything is,
+ *        from the image alone) and to people (the image itself), with its own feature-extraction instance.
+ *
+ * Parts: `camera` (the scene's overhead camera, rendered on this side) and `feature_extraction`.
+ * At `~rate` Hz of ROS time (at most `~max_wall_rate` Hz of wall time, so that a simulator running faster
+ * than real time does not flood it) it renders the camera straight into an image message, extracts the
+ * objects and the robot from that same buffer, and publishes `~image_raw`, `~camera_info` and `~features`
+ * (xpersif/FeatureVector). Operation `get_features` returns the latest vector.
+ * `~report_buffer_address` (default false) publishes [image seq, buffer address] on `~buffer_address`
+ * for the zero-copy test.
+ */
+#pragma once
+
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include <mutex>
+
+#include "xpersif/GetFeatures.h"
+#include "xpersif/component/aggregate.h"
+#include "xpersif/perception/camera_part.h"
+#include "xpersif/perception/feature_extraction_part.h"
+
+namespace xpersif {
+
+/// The get_features operation shared by OBSERVATION, PERCEPTION, FEATUREEXTRACTION and VISION.
+core::Contract getFeaturesContract(const std::string& what);
+/// Answer get_features from @p latest (null: nothing yet), refusing vectors older than request.max_age.
+void answerGetFeatures(const FeatureVector::ConstPtr& latest, const GetFeatures::Request& request,
+                       GetFeatures::Response& response);
+
+class Observation : public AggregateComponent {
+ public:
+  Observation(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+
+ private:
+  void tick();
+
+  CameraPart& camera_;
+  FeatureExtractionPart& extraction_;
+  std::mutex mutex_;
+  double rate_ = 10.0, max_wall_rate_ = 30.0;
+  bool report_address_ = false;
+  std::uint32_t seq_ = 0;
+  ros::WallTime last_wall_;
+  FeatureVector::ConstPtr latest_;
+  ros::Publisher image_pub_, info_pub_, features_pub_, address_pub_;
+  ros::Timer timer_;
+};
+
+}  // namespace xpersif

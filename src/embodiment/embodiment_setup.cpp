@@ -1,0 +1,55 @@
+#include "xpersif/embodiment/embodiment_setup.h"
+
+#include <algorithm>
+
+#include "xpersif/core/world_spec.h"
+
+namespace xpersif {
+
+std::vector<std::string> EmbodimentSetup::objectNames() const {
+  std::vector<std::string> names;
+  for (const auto& [name, size] : object_sizes) names.push_back(name);
+  return names;
+}
+
+EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh) {
+  std::string key, file;
+  if (!nh.searchParam("world", key) || !nh.getParam(key, file)) {
+    throw std::runtime_error("the 'world' parameter (XPERSim's world file) is not set in " + nh.getNamespace() +
+                             " or above; the embodiment reads the arena and the objects from it");
+  }
+  core::WorldSpec spec;
+  try {
+    spec = core::loadWorldFile(file);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("cannot read the set-up: ") + e.what());
+  }
+  EmbodimentSetup setup;
+  setup.world_file = file;
+  setup.arena.size_x = spec.arena.size_x;
+  setup.arena.size_y = spec.arena.size_y;
+  setup.max_wheel_speed = spec.robot.max_wheel_speed;
+  setup.wheel_separation = spec.robot.wheel_separation;
+  // The footprint: the widest collision shape of the root link (a cylinder or sphere for a round robot).
+  double radius = 0;
+  if (!spec.robot.links.empty()) {
+    for (const auto& c : spec.robot.links.front().collisions) {
+      if (c.shape.type == core::Shape::Type::Box) {
+        radius = std::max(radius, 0.5 * std::hypot(c.shape.box_size.x(), c.shape.box_size.y()));
+      } else {
+        radius = std::max(radius, c.shape.radius);
+      }
+    }
+  }
+  if (radius <= 0) throw std::runtime_error("the robot in " + file + " has no collision shape on its root link");
+  setup.robot_radius = radius;
+  for (const auto& object : spec.objects) {
+    const double size = object.shape.type == core::Shape::Type::Box
+                            ? std::max(object.shape.box_size.x(), object.shape.box_size.y())
+                            : 2.0 * object.shape.radius;
+    setup.object_sizes[object.name] = size;
+  }
+  return setup;
+}
+
+}  // namespace xpersif

@@ -1,0 +1,269 @@
+#include "xpersif/embodiment/manipulation.h"
+
+#include <cmath>
+
+#include "xpersif/embodiment/relocation.h"  // describePose
+
+namespace xpersif {
+
+namespace {
+geometry_msgs::Pose2D toMsg(double x, double y, double yaw) {
+  geometry_msgs::Pose2D m;
+  m.x = x;
+  m.y = y;
+  m.theta = yaw;
+  return m;
+}
+}  // namespace
+
+Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/ManipulationNodelet") {
+  core::Contract declared;
+  declared.name = "push";
+  declared.kind = core::Contract::Kind::Command;
+  declared.interface_type = "xpersif/PushAction";
+  declared.description = "push an object on one of its faces: approach, contact, push, retreat";
+  declared.parameters = {"?object", "?side", "?offset", "?distance"};
+  declared.preconditions = {
+      {"known(?object)", "the object must be one of the set-up's objects"},
+      {"valid_push(?side, ?offset, ?distance)",
+       "the side must be -x, +x, -y or +y, the offset within the face, the distance positive and at most 0.15 m"},
+      {"localized(robot)", "the robot's pose must be known from the requested pose source"},
+      {"observed(?object)", "the overhead camera must have seen the object recently"},
+      {"pushable(?object, ?side)", "the approach spot must be free and the object must not end in a wall"},
+      {"reachable(?object, ?side)", "a collision-free path must lead from the robot to the approach spot"}};
+  declared.effects = {"pushed(?object, ?side, ?offset, ?distance)"};
+  ContractChecker<PushGoal> contract(declared);
+  contract
+      .bind([](const PushGoal& g) {
+        return core::Bindings{{"?object", g.object},
+                              {"?side", g.side},
+                              {"?offset", core::describeNumber(g.offset)},
+                              {"?distance", core::describeNumber(g.distance)}};
+      })
+      .check("known(?object)",
+             [this](const PushGoal& g) {
+               std::lock_guard<std::mutex> lock(mutex_);
+               return core::checkKnownName("goal.object", g.object, setup_.objectNames());
+             })
+      .check("valid_push(?side, ?offset, ?distance)",
+             [this](const PushGoal& g) {
+               std::string why = core::checkPushSide(g.side);
+               if (why.empty()) why = core::checkFinite("goal.offset", g.offset);
+               if (why.empty()) why = core::checkFinite("goal.distance", g.distance);
+               if (!why.empty()) return why;
+               std::lock_guard<std::mutex> lock(mutex_);
+               const double half = 0.5 * setup_.object_sizes.at(g.object);
+               if (std::abs(g.offset) > half) {
+                 return "goal.offset is " + core::describeNumber(g.offset) + " m; it must lie within the face, |offset| <= " +
+                        core::describeNumber(half) + " m";
+               }
+               if (!(g.distance > 0) || g.distance > 0.15) {
+                 return "goal.distance is " + core::describeNumber(g.distance) + " m; it must be in (0, 0.15] m";
+               }
+               return std::string();
+             })
+      .check("localized(robot)",
+             [this](const PushGoal& g) {
+               core::Pose2D pose;
+               return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+             })
+      .check("observed(?object)",
+             [this](const PushGoal& g) {
+               core::BoxObstacle object;
+               return observedObject(g.object, observation_max_age_, &object);
+             })
+      .check("pushable(?object, ?side)",
+             [this](const PushGoal& g) {
+               core::PushPlan plan;
+               core::PathResult path;
+               const std::string why = planFor(g, &plan, &path);
+               return plan.ok ? std::string() : why;
+             })
+      .check("reachable(?object, ?side)", [this](const PushGoal& g) {
+        core::PushPlan plan;
+        core::PathResult path;
+        return planFor(g, &plan, &path);
+      });
+  addCommand<PushAction>(
+      contract, [](const PushGoal& g) {
+        core::requireMaxLength("goal.object", g.object, 128);
+        core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source));
+      },
+      [this](Push::Context& context, PushResult& result) { return push(context, result); });
+}
+
+void Manipulation::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  double rate = 50, max_linear = 0.1, max_angular = 2.5, margin = 0.01, max_age = 2.0, settle = 0.3;
+  bool has_gripper = false;
+  std::string observation_topic = "observation/features";
+  pnh.param("control_rate", rate, rate);
+  pnh.param("max_linear", max_linear, max_linear);
+  pnh.param("max_angular", max_angular, max_angular);
+  pnh.param("margin", margin, margin);
+  pnh.param("observation_max_age", max_age, max_age);
+  pnh.param("settle_time", settle, settle);
+  pnh.param("observation_topic", observation_topic, observation_topic);
+  pnh.param("has_gripper", has_gripper, has_gripper);
+  if (has_gripper) throw std::runtime_error("~has_gripper is true, but this robot model has no gripper to drive");
+  core::requireInRange("~control_rate", rate, 1.0, 1000.0);
+  core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
+  core::requireInRange("~max_angular", max_angular, 1e-2, 50.0);
+  core::requireInRange("~margin", margin, 0.0, 0.1);
+  core::requirePositive("~observation_max_age", max_age);
+  core::requireInRange("~settle_time", settle, 0.0, 10.0);
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  setup_ = setup;
+  control_period_ = 1.0 / rate;
+  limits_ = core::MotionLimits();
+  limits_.max_linear = max_linear;
+  limits_.max_angular = max_angular;
+  limits_.require();
+  margin_ = margin;
+  observation_max_age_ = max_age;
+  settle_time_ = settle;
+  if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
+  pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
+}
+
+void Manipulation::onDeactivate() { publishVelocity({}); }
+
+void Manipulation::onShutdown() {
+  publishVelocity({});
+  std::lock_guard<std::mutex> lock(mutex_);
+  pose_source_.reset();
+}
+
+void Manipulation::publishVelocity(const core::Velocity2D& velocity) {
+  geometry_msgs::Twist twist;
+  twist.linear.x = velocity.linear;
+  twist.angular.z = velocity.angular;
+  if (cmd_vel_pub_) cmd_vel_pub_.publish(twist);
+}
+
+std::string Manipulation::observedObject(const std::string& name, double max_age, core::BoxObstacle* object) const {
+  if (!pose_source_) return "not configured";
+  std::map<std::string, double> sizes;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sizes = setup_.object_sizes;
+  }
+  for (const auto& o : pose_source_->obstacles(sizes, max_age)) {
+    if (o.name == name) {
+      *object = o;
+      return "";
+    }
+  }
+  return pose_source_->observation(max_age) ? "the overhead camera does not see " + name + " now"
+                                            : "no observation in the last " + core::describeNumber(max_age) + " s";
+}
+
+std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, core::PathResult* path) const {
+  core::BoxObstacle object;
+  std::string why = observedObject(goal.object, observation_max_age_, &object);
+  if (!why.empty()) return why;
+  core::Pose2D start;
+  why = pose_source_->pose(goal.pose_source, &start);
+  if (!why.empty()) return why;
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<core::BoxObstacle> others;
+  for (const auto& o : pose_source_->obstacles(setup_.object_sizes, observation_max_age_)) {
+    if (o.name != goal.object) others.push_back(o);
+  }
+  core::PushRequest request;
+  request.object = goal.object;
+  request.side = goal.side;
+  request.offset = goal.offset;
+  request.distance = goal.distance;
+  core::PushOptions options;
+  options.margin = margin_;
+  *plan = core::planPush(object, request, setup_.robot_radius, setup_.arena, others, options);
+  if (!plan->ok) return plan->reason;
+  // The approach path keeps clear of every object, the pushed one included.
+  core::PathPlanner planner(setup_.arena, setup_.robot_radius, margin_);
+  others.push_back(object);
+  planner.setObstacles(others);
+  *path = planner.plan(start, plan->approach);
+  return path->ok ? "" : "no path to the approach spot " +
+                             describePose(plan->approach.x, plan->approach.y, plan->approach.yaw) + ": " + path->reason;
+}
+
+CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
+  const PushGoal& goal = context.goal();
+  core::PushPlan plan;
+  core::PathResult path;
+  std::string why = planFor(goal, &plan, &path);
+  if (!why.empty()) return CommandOutcome::aborted(result.message = why);
+  core::BoxObstacle before;
+  observedObject(goal.object, observation_max_age_, &before);
+  result.object_before = toMsg(before.x, before.y, before.yaw);
+  const ros::Time started = ros::Time::now();
+
+  core::MotionLimits limits;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    limits = limits_;
+  }
+  core::PushController controller(limits);
+  controller.start(plan, path.waypoints);
+  ros::Time last = ros::Time::now();
+  core::Pose2D pose;
+  while (true) {
+    if (context.stopRequested()) {
+      controller.stop();
+      publishVelocity({});
+      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
+      return CommandOutcome::aborted(result.message = "component stopping; robot stopped");
+    }
+    why = pose_source_->pose(goal.pose_source, &pose);
+    if (!why.empty()) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
+    }
+    const ros::Time now = ros::Time::now();
+    const double dt = std::max(1e-4, (now - last).toSec());
+    last = now;
+    const core::PushFeedback fb = controller.update(pose, dt);
+    publishVelocity(fb.command);
+    result.robot_final = toMsg(pose.x, pose.y, pose.yaw);
+    if (fb.failed) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = "push failed: " + fb.reason);
+    }
+    if (fb.done) break;
+    PushFeedback feedback;
+    feedback.phase = core::toString(fb.phase);
+    feedback.progress = fb.progress;
+    feedback.pose = result.robot_final;
+    context.publishFeedback(feedback);
+    context.sleepFor(ros::Duration(control_period_));
+  }
+  publishVelocity({});
+  // Let the object come to rest, then take the first observation made after that.
+  if (!context.sleepFor(ros::Duration(settle_time_))) {
+    return CommandOutcome::aborted(result.message = "stopped while waiting for the object to settle");
+  }
+  const ros::Time settled = ros::Time::now();
+  const ros::Time deadline = settled + ros::Duration(std::max(1.0, 3 * observation_max_age_));
+  while (ros::Time::now() < deadline) {
+    const auto seen = pose_source_->observation();
+    if (seen && seen->header.stamp >= settled) {
+      for (const auto& o : seen->objects) {
+        if (o.name != goal.object) continue;
+        result.object_after = toMsg(o.position.x, o.position.y, o.yaw);
+        result.observed_after = true;
+      }
+      break;
+    }
+    if (!context.sleepFor(ros::Duration(control_period_))) break;
+  }
+  result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
+                   " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
+                   (result.observed_after ? "" : " (not seen afterwards)");
+  return CommandOutcome::succeeded(result.message);
+}
+
+}  // namespace xpersif

@@ -1,0 +1,298 @@
+#include "xpersif/embodiment/relocation.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace xpersif {
+
+std::string describePose(double x, double y, double yaw) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f)", x, y, yaw);
+  return text;
+}
+
+namespace {
+core::Pose2D toPose(const geometry_msgs::Pose2D& p) { return {p.x, p.y, p.theta}; }
+geometry_msgs::Pose2D toMsg(const core::Pose2D& p) {
+  geometry_msgs::Pose2D m;
+  m.x = p.x;
+  m.y = p.y;
+  m.theta = p.yaw;
+  return m;
+}
+}  // namespace
+
+Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/RelocationNodelet") {
+  // ---- go_to_pose --------------------------------------------------------------------------------
+  core::Contract go;
+  go.name = "go_to_pose";
+  go.kind = core::Contract::Kind::Command;
+  go.interface_type = "xpersif/GoToPoseAction";
+  go.description = "drive the robot to a pose, around the objects the overhead camera sees";
+  go.parameters = {"?pose"};
+  go.preconditions = {{"finite(?pose)", "the target must be finite numbers"},
+                      {"localized(robot)", "the robot's pose must be known from the requested pose source"},
+                      {"in_arena(?pose)", "the robot must fit inside the arena at the target"},
+                      {"reachable(?pose)", "a collision-free path must lead from the robot to the target"}};
+  go.effects = {"robot_at(?pose)"};
+  ContractChecker<GoToPoseGoal> go_contract(go);
+  go_contract
+      .bind([](const GoToPoseGoal& g) {
+        return core::Bindings{{"?pose", describePose(g.target.x, g.target.y, g.target.theta)}};
+      })
+      .check("finite(?pose)",
+             [](const GoToPoseGoal& g) { return core::checkPose("goal.target", toPose(g.target)); })
+      .check("localized(robot)",
+             [this](const GoToPoseGoal& g) {
+               core::Pose2D pose;
+               return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+             })
+      .check("in_arena(?pose)",
+             [this](const GoToPoseGoal& g) {
+               std::lock_guard<std::mutex> lock(mutex_);
+               return core::checkTargetInArena(setup_.arena, g.target.x, g.target.y, setup_.robot_radius);
+             })
+      .check("reachable(?pose)", [this](const GoToPoseGoal& g) {
+        core::PathResult path;
+        return planTo(g, &path);
+      });
+  addCommand<GoToPoseAction>(
+      go_contract,
+      [](const GoToPoseGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
+      [this](GoToPose::Context& context, GoToPoseResult& result) { return goTo(context, result); });
+
+  // ---- turn_to -----------------------------------------------------------------------------------
+  core::Contract turn;
+  turn.name = "turn_to";
+  turn.kind = core::Contract::Kind::Command;
+  turn.interface_type = "xpersif/TurnToAction";
+  turn.description = "turn the robot in place to a heading";
+  turn.parameters = {"?heading"};
+  turn.preconditions = {{"finite(?heading)", "the heading must be a finite number"},
+                        {"localized(robot)", "the robot's pose must be known from the requested pose source"}};
+  turn.effects = {"robot_heading(?heading)"};
+  ContractChecker<TurnToGoal> turn_contract(turn);
+  turn_contract.bind([](const TurnToGoal& g) { return core::Bindings{{"?heading", core::describeNumber(g.heading)}}; })
+      .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkFinite("goal.heading", g.heading); })
+      .check("localized(robot)", [this](const TurnToGoal& g) {
+        core::Pose2D pose;
+        return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+      });
+  addCommand<TurnToAction>(
+      turn_contract, [](const TurnToGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
+      [this](TurnTo::Context& context, TurnToResult& result) { return turnTo(context, result); });
+
+  // ---- operations ----------------------------------------------------------------------------------
+  core::Contract set_max;
+  set_max.name = "set_max_velocity";
+  set_max.kind = core::Contract::Kind::Operation;
+  set_max.interface_type = "xpersif/SetMaxVelocity";
+  set_max.description = "limit the speed of the robot's movements (takes effect at once, also mid-move)";
+  set_max.parameters = {"?linear", "?angular"};
+  set_max.effects = {"max_velocity(?linear, ?angular)"};
+  ContractChecker<SetMaxVelocity::Request> set_max_contract(set_max);
+  set_max_contract.bind([](const SetMaxVelocity::Request& r) {
+    return core::Bindings{{"?linear", core::describeNumber(r.linear)}, {"?angular", core::describeNumber(r.angular)}};
+  });
+  addOperation<SetMaxVelocity>(
+      set_max_contract,
+      [this](const SetMaxVelocity::Request& r) {
+        core::requireInRange("linear", r.linear, 1e-3, 2.0 * setup_.max_wheel_speed);
+        core::requireInRange("angular", r.angular, 1e-2, 50.0);
+      },
+      [this](const SetMaxVelocity::Request& r, SetMaxVelocity::Response& response) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        limits_.max_linear = r.linear;
+        limits_.max_angular = r.angular;
+        response.linear = limits_.max_linear;
+        response.angular = limits_.max_angular;
+      },
+      false);
+
+  core::Contract stop;
+  stop.name = "stop";
+  stop.kind = core::Contract::Kind::Operation;
+  stop.interface_type = "std_srvs/Trigger";
+  stop.description = "stop the robot now: zero velocity, and the running command ends ABORTED";
+  stop.effects = {"stopped(robot)"};
+  addOperation<std_srvs::Trigger>(
+      ContractChecker<std_srvs::Trigger::Request>(stop), nullptr,
+      [this](const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+        ++stop_generation_;
+        publishVelocity({});
+        response.message = "stopped";
+      },
+      false);
+}
+
+void Relocation::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  double rate = 50, max_linear = 0.1, max_angular = 2.5, position_tolerance = 0.005, yaw_tolerance = 0.026;
+  double margin = 0.01, obstacle_max_age = 5.0;
+  std::string observation_topic = "observation/features";
+  pnh.param("control_rate", rate, rate);
+  pnh.param("max_linear", max_linear, max_linear);
+  pnh.param("max_angular", max_angular, max_angular);
+  pnh.param("position_tolerance", position_tolerance, position_tolerance);
+  pnh.param("yaw_tolerance", yaw_tolerance, yaw_tolerance);
+  pnh.param("margin", margin, margin);
+  pnh.param("obstacle_max_age", obstacle_max_age, obstacle_max_age);
+  pnh.param("observation_topic", observation_topic, observation_topic);
+  core::requireInRange("~control_rate", rate, 1.0, 1000.0);
+  core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
+  core::requireInRange("~max_angular", max_angular, 1e-2, 50.0);
+  core::requireInRange("~position_tolerance", position_tolerance, 1e-4, 0.1);
+  core::requireInRange("~yaw_tolerance", yaw_tolerance, 1e-3, 0.5);
+  core::requireInRange("~margin", margin, 0.0, 0.1);
+  core::requirePositive("~obstacle_max_age", obstacle_max_age);
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  setup_ = setup;
+  control_period_ = 1.0 / rate;
+  limits_ = core::MotionLimits();
+  limits_.max_linear = max_linear;
+  limits_.max_angular = max_angular;
+  limits_.require();
+  options_ = core::GoToPoseOptions();
+  options_.position_tolerance = position_tolerance;
+  options_.yaw_tolerance = yaw_tolerance;
+  options_.timeout = 120.0;
+  margin_ = margin;
+  obstacle_max_age_ = obstacle_max_age;
+  if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
+  pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
+}
+
+void Relocation::onDeactivate() { publishVelocity({}); }
+
+void Relocation::onShutdown() {
+  publishVelocity({});
+  std::lock_guard<std::mutex> lock(mutex_);
+  pose_source_.reset();
+}
+
+core::MotionLimits Relocation::limits() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return limits_;
+}
+
+void Relocation::publishVelocity(const core::Velocity2D& velocity) {
+  geometry_msgs::Twist twist;
+  twist.linear.x = velocity.linear;
+  twist.angular.z = velocity.angular;
+  if (cmd_vel_pub_) cmd_vel_pub_.publish(twist);
+}
+
+std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path) const {
+  if (!pose_source_) return "not configured";
+  core::Pose2D start;
+  std::string why = pose_source_->pose(goal.pose_source, &start);
+  if (!why.empty()) return why;
+  std::lock_guard<std::mutex> lock(mutex_);
+  core::PathPlanner planner(setup_.arena, setup_.robot_radius, margin_);
+  if (!goal.straight) planner.setObstacles(pose_source_->obstacles(setup_.object_sizes, obstacle_max_age_));
+  *path = planner.plan(start, toPose(goal.target));
+  return path->ok ? "" : path->reason;
+}
+
+CommandOutcome Relocation::goTo(GoToPose::Context& context, GoToPoseResult& result) {
+  const GoToPoseGoal& goal = context.goal();
+  core::PathResult path;
+  std::string why = planTo(goal, &path);
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "no path: " + why);
+  core::PathFollower follower(limits(), options_);
+  follower.setPath(path.waypoints);
+  const std::uint64_t stop_generation = stop_generation_;
+  ros::Time last = ros::Time::now();
+  core::Pose2D pose;
+  while (true) {
+    if (context.stopRequested() || stop_generation_ != stop_generation) {
+      follower.stop();
+      publishVelocity({});
+      pose_source_->pose(goal.pose_source, &pose);
+      result.final_pose = toMsg(pose);
+      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
+      return CommandOutcome::aborted(result.message = stop_generation_ != stop_generation
+                                                          ? "stopped by the stop operation"
+                                                          : "component stopping; robot stopped");
+    }
+    why = pose_source_->pose(goal.pose_source, &pose);
+    if (!why.empty()) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
+    }
+    const ros::Time now = ros::Time::now();
+    const double dt = std::max(1e-4, (now - last).toSec());
+    last = now;
+    follower.setLimits(limits());
+    const core::MotionFeedback fb = follower.update(pose, dt);
+    publishVelocity(fb.command);
+    result.final_pose = toMsg(pose);
+    result.position_error = std::hypot(goal.target.x - pose.x, goal.target.y - pose.y);
+    result.yaw_error = core::normalizeAngle(goal.target.theta - pose.yaw);
+    if (fb.done) {
+      publishVelocity({});
+      return CommandOutcome::succeeded(result.message = "reached " + describePose(pose.x, pose.y, pose.yaw));
+    }
+    if (fb.failed) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = fb.reason);
+    }
+    GoToPoseFeedback feedback;
+    feedback.pose = toMsg(pose);
+    feedback.phase = core::toString(fb.phase);
+    feedback.distance_remaining = fb.distance_remaining;
+    feedback.yaw_error = fb.yaw_error;
+    context.publishFeedback(feedback);
+    context.sleepFor(ros::Duration(control_period_));
+  }
+}
+
+CommandOutcome Relocation::turnTo(TurnTo::Context& context, TurnToResult& result) {
+  const TurnToGoal& goal = context.goal();
+  core::TurnController controller(limits(), options_.yaw_tolerance);
+  controller.setGoal(goal.heading);
+  const std::uint64_t stop_generation = stop_generation_;
+  ros::Time last = ros::Time::now();
+  core::Pose2D pose;
+  while (true) {
+    if (context.stopRequested() || stop_generation_ != stop_generation) {
+      controller.stop();
+      publishVelocity({});
+      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
+      return CommandOutcome::aborted(result.message = stop_generation_ != stop_generation
+                                                          ? "stopped by the stop operation"
+                                                          : "component stopping; robot stopped");
+    }
+    const std::string why = pose_source_->pose(goal.pose_source, &pose);
+    if (!why.empty()) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
+    }
+    const ros::Time now = ros::Time::now();
+    const double dt = std::max(1e-4, (now - last).toSec());
+    last = now;
+    controller.setLimits(limits());
+    const core::MotionFeedback fb = controller.update(pose, dt);
+    publishVelocity(fb.command);
+    result.final_pose = toMsg(pose);
+    result.yaw_error = core::normalizeAngle(goal.heading - pose.yaw);
+    if (fb.done) {
+      publishVelocity({});
+      return CommandOutcome::succeeded(result.message = "heading " + core::describeNumber(pose.yaw));
+    }
+    if (fb.failed) {
+      publishVelocity({});
+      return CommandOutcome::aborted(result.message = fb.reason);
+    }
+    TurnToFeedback feedback;
+    feedback.pose = toMsg(pose);
+    feedback.yaw_error = fb.yaw_error;
+    context.publishFeedback(feedback);
+    context.sleepFor(ros::Duration(control_period_));
+  }
+}
+
+}  // namespace xpersif

@@ -1,0 +1,102 @@
+#include "xpersif/embodiment/robot_pose_source.h"
+
+#include <cmath>
+#include <limits>
+
+namespace xpersif {
+
+namespace {
+double yawOf(const geometry_msgs::Quaternion& q) {
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+}  // namespace
+
+RobotPoseSource::RobotPoseSource(ros::NodeHandle nh, const std::string& odom_topic,
+                                 const std::string& observation_topic) {
+  odom_sub_ = nh.subscribe(odom_topic, 50, &RobotPoseSource::onOdometry, this);
+  observation_sub_ = nh.subscribe(observation_topic, 5, &RobotPoseSource::onObservation, this);
+}
+
+void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
+  const auto& p = odom->pose.pose;
+  const core::Pose2D pose{p.position.x, p.position.y, yawOf(p.orientation)};
+  std::lock_guard<std::mutex> lock(mutex_);
+  try {
+    correction_.addOdometry(odom->header.stamp.toSec(), pose);
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "ignoring odometry: %s", e.what());
+    return;
+  }
+  linear_ = odom->twist.twist.linear.x;
+  angular_ = odom->twist.twist.angular.z;
+  last_odometry_ = ros::Time::now();
+}
+
+void RobotPoseSource::onObservation(const FeatureVector::ConstPtr& features) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  observation_ = features;
+  if (!features->robot_found) return;
+  try {
+    correction_.addFix(features->header.stamp.toSec(), {features->robot.x, features->robot.y, features->robot.theta});
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "ignoring a robot fix: %s", e.what());
+  }
+}
+
+std::string RobotPoseSource::checkSource(const std::string& source) {
+  if (source.empty() || source == "odometry" || source == "observation") return "";
+  return "pose_source '" + source + "' is not one of: odometry, observation";
+}
+
+std::string RobotPoseSource::pose(const std::string& source, core::Pose2D* pose) const {
+  const std::string bad = checkSource(source);
+  if (!bad.empty()) return bad;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!correction_.hasOdometry()) return "no odometry has arrived yet";
+  if (source == "observation") {
+    if (!correction_.corrected()) return "the overhead camera has not seen the robot yet";
+    *pose = correction_.estimate();
+  } else {
+    *pose = correction_.odometry();
+  }
+  return "";
+}
+
+void RobotPoseSource::velocity(double* linear, double* angular) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  *linear = linear_;
+  *angular = angular_;
+}
+
+bool RobotPoseSource::hasOdometry() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return correction_.hasOdometry();
+}
+
+double RobotPoseSource::odometryAge() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (last_odometry_.isZero()) return std::numeric_limits<double>::infinity();
+  return (ros::Time::now() - last_odometry_).toSec();
+}
+
+std::optional<FeatureVector> RobotPoseSource::observation(double max_age) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!observation_) return std::nullopt;
+  if (max_age > 0 && (ros::Time::now() - observation_->header.stamp).toSec() > max_age) return std::nullopt;
+  return *observation_;
+}
+
+std::vector<core::BoxObstacle> RobotPoseSource::obstacles(const std::map<std::string, double>& sizes,
+                                                          double max_age) const {
+  std::vector<core::BoxObstacle> result;
+  const auto seen = observation(max_age);
+  if (!seen) return result;
+  for (const auto& object : seen->objects) {
+    const auto size = sizes.find(object.name);
+    if (size == sizes.end()) continue;
+    result.push_back({object.name, object.position.x, object.position.y, object.yaw, size->second});
+  }
+  return result;
+}
+
+}  // namespace xpersif

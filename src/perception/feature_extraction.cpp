@@ -1,0 +1,115 @@
+#include "xpersif/perception/feature_extraction.h"
+
+#include <std_msgs/UInt64MultiArray.h>
+
+#include "xpersif/perception/observation.h"  // get_features
+
+namespace xpersif {
+
+FeatureExtraction::FeatureExtraction(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/FeatureExtractionNodelet") {
+  ContractChecker<GetFeatures::Request> contract(getFeaturesContract("feature extraction"));
+  contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return latest_ ? std::string() : "no image has been processed yet";
+  });
+  addOperation<GetFeatures>(
+      contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
+        FeatureVector::ConstPtr latest;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          latest = latest_;
+        }
+        answerGetFeatures(latest, request, response);
+      });
+}
+
+void FeatureExtraction::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  std::string camera, image_topic = "camera/image_raw", scene_topic = "xpersim/scene";
+  bool report = false;
+  if (!pnh.getParam("camera", camera)) throw std::runtime_error("~camera is not set; name the scene camera the images come from");
+  core::requireIdentifier("~camera", camera);
+  pnh.param("image_topic", image_topic, image_topic);
+  pnh.param("scene_topic", scene_topic, scene_topic);
+  pnh.param("report_buffer_address", report, report);
+  extraction_.configure(ros::NodeHandle(pnh, "feature_extraction"));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    camera_name_ = camera;
+    image_topic_ = image_topic;
+    report_address_ = report;
+    latest_.reset();
+    if (!features_pub_) {
+      features_pub_ = pnh.advertise<FeatureVector>("features", 10);
+      if (report_address_) address_pub_ = pnh.advertise<std_msgs::UInt64MultiArray>("buffer_address", 10);
+    }
+  }
+  tracker_ = std::make_unique<SceneTracker>(nodeHandle());
+  tracker_->follow(scene_topic, [this] { onScene(); });
+}
+
+void FeatureExtraction::onScene() {
+  const core::SceneDescription scene = tracker_->scene();
+  std::string name;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    name = camera_name_;
+  }
+  const core::CameraModel* model = scene.findCamera(name);
+  if (!model) {
+    std::vector<std::string> names;
+    for (const auto& c : scene.cameras) names.push_back(c.name);
+    reportError(core::checkKnownName("~camera", name, names));
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    camera_ = *model;
+  }
+  extraction_.setCamera(scene, *model);
+}
+
+void FeatureExtraction::onActivate() {
+  image_sub_ = nodeHandle().subscribe<sensor_msgs::Image>(image_topic_, 2, &FeatureExtraction::onImage, this);
+}
+
+void FeatureExtraction::onDeactivate() { image_sub_.shutdown(); }
+
+void FeatureExtraction::onShutdown() {
+  image_sub_.shutdown();
+  tracker_.reset();
+  extraction_.shutdown();
+}
+
+void FeatureExtraction::onImage(const sensor_msgs::Image::ConstPtr& image) {
+  if (!extraction_.ready() || !tracker_) return;
+  std::string frame;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    frame = camera_.frame;
+  }
+  const core::FrameTransforms world = tracker_->worldTransforms();
+  const auto pose = world.find(frame);
+  if (pose == world.end()) return;
+  try {
+    auto features = boost::make_shared<FeatureVector>(
+        extraction_.extract(*image, pose->second, privateNodeHandle().getNamespace()));
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (report_address_) {
+      std_msgs::UInt64MultiArray address;  // [image seq, address of the buffer the features came from]
+      address.data = {image->header.seq, reinterpret_cast<std::uintptr_t>(image->data.data())};
+      address_pub_.publish(address);
+    }
+    latest_ = features;
+    features_pub_.publish(features);
+  } catch (const core::ValidationError& e) {
+    // One bad image is the sender's fault, not ours: say so and go on.
+    ROS_WARN_THROTTLE(5.0, "%s: skipping an image: %s", name().c_str(), e.what());
+  } catch (const std::exception& e) {
+    reportError(std::string("feature extraction failed: ") + e.what());
+  }
+}
+
+}  // namespace xpersif

@@ -1,0 +1,139 @@
+#include "xpersif/perception/perception.h"
+
+#include "xpersif/perception/observation.h"  // get_features
+
+namespace xpersif {
+
+Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : AggregateComponent(nh, private_nh, "xpersif/PerceptionNodelet"),
+      ir_ring_(addPart<LatestMessagePart<IrRanges>>("ir_ring", nh, "ir")),
+      odometry_(addPart<LatestMessagePart<nav_msgs::Odometry>>("odometry", nh, "odom")),
+      camera_(addPart<CameraPart>("camera", nh, "robot_camera", [this](const RenderedCamera& c) { onScene(c); })),
+      extraction_(addPart<FeatureExtractionPart>("feature_extraction")) {
+  core::Contract read_ir;
+  read_ir.name = "read_ir";
+  read_ir.kind = core::Contract::Kind::Operation;
+  read_ir.interface_type = "xpersif/ReadIr";
+  read_ir.description = "the latest reading of the IR proximity ring";
+  read_ir.preconditions = {{"sensing(ir_ring)", "an IR reading must have arrived"}};
+  read_ir.effects = {"known(ir_ranges)"};
+  ContractChecker<ReadIr::Request> ir_contract(read_ir);
+  ir_contract.check("sensing(ir_ring)", [this](const ReadIr::Request&) {
+    return ir_ring_.latest() ? std::string() : "no IR reading has arrived yet";
+  });
+  addOperation<ReadIr>(
+      ir_contract, [](const ReadIr::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
+      [this](const ReadIr::Request& request, ReadIr::Response& response) {
+        const IrRanges::ConstPtr reading = ir_ring_.latest();
+        const double age = (ros::Time::now() - reading->header.stamp).toSec();
+        if (request.max_age > 0 && age > request.max_age) {
+          throw std::runtime_error("the latest IR reading is " + core::describeNumber(age) + " s old, more than max_age " +
+                                   core::describeNumber(request.max_age) + " s");
+        }
+        response.reading = *reading;
+      });
+
+  ContractChecker<GetFeatures::Request> features_contract(getFeaturesContract("the robot camera"));
+  features_contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return latest_ ? std::string() : "the robot camera has produced no feature vector yet";
+  });
+  addOperation<GetFeatures>(
+      features_contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
+        FeatureVector::ConstPtr latest;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          latest = latest_;
+        }
+        answerGetFeatures(latest, request, response);
+      });
+}
+
+void Perception::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  double rate = 10.0, max_wall_rate = 30.0;
+  pnh.param("rate", rate, rate);
+  pnh.param("max_wall_rate", max_wall_rate, max_wall_rate);
+  core::requireInRange("~rate", rate, 0.1, 1000.0);
+  core::requireInRange("~max_wall_rate", max_wall_rate, 0.1, 1000.0);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rate_ = rate;
+    max_wall_rate_ = max_wall_rate;
+    latest_.reset();
+    have_mount_ = false;
+    if (!image_pub_) {
+      image_pub_ = pnh.advertise<sensor_msgs::Image>("image_raw", 2);
+      info_pub_ = pnh.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
+      features_pub_ = pnh.advertise<FeatureVector>("features", 10);
+    }
+  }
+  AggregateComponent::onConfigure();
+}
+
+void Perception::onScene(const RenderedCamera& camera) {
+  // The camera's mount on the robot: chain the fixed nodes from the camera's frame up to the robot's root.
+  const core::SceneDescription scene = camera.scene();
+  const std::string root = "base_link";
+  Eigen::Isometry3d root_from_camera = Eigen::Isometry3d::Identity();
+  std::string frame = camera.model().frame;
+  const core::SceneNode* node = scene.findNode(frame);
+  while (node && node->name != root) {
+    root_from_camera = node->parent_from_node * root_from_camera;
+    node = scene.findNode(node->parent);
+  }
+  if (!node) {
+    reportError("camera '" + camera.name() + "' does not hang from the robot's " + root + "; PERCEPTION needs the robot's own camera");
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    base_from_camera_ = root_from_camera;
+    base_height_ = node->parent_from_node.translation().z();
+    have_mount_ = true;
+  }
+  extraction_.setCamera(scene, camera.model());
+}
+
+void Perception::onActivate() {
+  AggregateComponent::onActivate();
+  timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
+}
+
+void Perception::onDeactivate() {
+  timer_.stop();
+  AggregateComponent::onDeactivate();
+}
+
+void Perception::tick() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_wall_).toSec() < 1.0 / max_wall_rate_) return;
+  auto camera = camera_.camera();
+  const nav_msgs::Odometry::ConstPtr odom = odometry_.latest();
+  if (!camera || !have_mount_ || !odom || !extraction_.ready()) return;
+  try {
+    sensor_msgs::ImagePtr image = camera->render(seq_ + 1);
+    if (!image) return;
+    last_wall_ = now;
+    ++seq_;
+    const auto& p = odom->pose.pose;
+    const double yaw = std::atan2(2.0 * (p.orientation.w * p.orientation.z + p.orientation.x * p.orientation.y),
+                                  1.0 - 2.0 * (p.orientation.y * p.orientation.y + p.orientation.z * p.orientation.z));
+    // What the robot believes: its odometry on the floor, at its body's height, and the camera's mount.
+    Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+    world_from_base.translation() = Eigen::Vector3d(p.position.x, p.position.y, base_height_);
+    world_from_base.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    auto features = boost::make_shared<FeatureVector>(
+        extraction_.extract(*image, world_from_base * base_from_camera_, privateNodeHandle().getNamespace()));
+    image_pub_.publish(image);
+    info_pub_.publish(camera->info(image->header));
+    latest_ = features;
+    features_pub_.publish(features);
+  } catch (const std::exception& e) {
+    reportError(std::string("perception failed: ") + e.what());
+  }
+}
+
+}  // namespace xpersif
