@@ -14,8 +14,10 @@ std::string trim(const std::string& s) {
   return s.substr(begin, end - begin + 1);
 }
 
+// '+' so that signed values and push sides ("+x") can be arguments.
 bool isNameChar(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '?' || c == '-' || c == '.' || c == '/';
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '?' || c == '-' || c == '+' || c == '.' ||
+         c == '/';
 }
 
 }  // namespace

@@ -1,0 +1,135 @@
+/**
+ * @file experiment_design.h
+ * @brief DESIGNOFEXPERIMENTS' algorithms: which push to try next. A curiosity-driven design (steered by
+ *        MOTIVATION's expected learning progress) and the two baselines the paper's comparison needs, random
+ *        and grid, behind one interface so the loop can swap them by name.
+ *
+ * An experiment is a push: the robot drives against one face of a cube (side, in the cube's frame: "-x",
+ * "+x", "-y", "+y"; the push goes along the face's inward normal), at a lateral offset of the contact point
+ * from the face's centre, for a distance after contact. Every design is seeded and deterministic: the same
+ * seed and the same sequence of contexts give the same experiments. Unreachable objects are never chosen.
+ */
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace xpersif::core {
+
+/// The pushable faces, in the cube's frame.
+extern const std::vector<std::string> kPushSides;
+/// Half the 4 cm face: a contact point further off the centre would miss the cube.
+constexpr double kMaxPushOffset = 0.02;
+/// The longest push after contact, metres (the arena is 0.9 x 0.6 m).
+constexpr double kMaxPushDistance = 0.15;
+
+/// One designed experiment (a push). The loop turns it into its full experiment record.
+struct ExperimentChoice {
+  std::string object;  ///< e.g. "red_cube"
+  std::string side;    ///< one of kPushSides
+  double offset = 0;   ///< metres, lateral offset of the contact point from the face centre
+  double distance = 0; ///< metres driven after contact
+  std::string rationale;  ///< why this one, for people and traces (e.g. "grid cell 3 of 96")
+
+  /// "push red_cube on +x, offset 0.01 m, distance 0.06 m"
+  std::string toString() const;
+};
+
+struct DesignObject {
+  std::string name;
+  bool reachable = true;  ///< false: the robot cannot get to it now (e.g. against a wall); never chosen
+};
+
+struct DesignContext {
+  std::vector<DesignObject> objects;  ///< the objects that may be pushed
+  std::size_t history_count = 0;      ///< experiments done so far
+  /// Expected learning progress of a candidate (MOTIVATION's curiosity); required by the curiosity design.
+  std::function<double(const ExperimentChoice&)> curiosity;
+};
+
+struct DesignOptions {
+  double min_offset = -kMaxPushOffset;  ///< within [-kMaxPushOffset, kMaxPushOffset]
+  double max_offset = kMaxPushOffset;
+  double min_distance = 0.01;  ///< within (0, kMaxPushDistance]
+  double max_distance = kMaxPushDistance;
+  std::vector<std::string> sides = kPushSides;             ///< the faces designs may choose
+  /// Grid design's values; each within the absolute limits (not min/max above, which bound sampled pushes).
+  std::vector<double> grid_offsets{-0.015, 0.0, 0.015};
+  std::vector<double> grid_distances{0.03, 0.06};
+  std::size_t candidates = 32;  ///< curiosity design: candidates sampled per decision (1..10000)
+  double epsilon = 0.1;         ///< curiosity design: probability of a random candidate instead of the best
+
+  /// Throw ValidationError (one sentence naming the option) unless the options are consistent.
+  void validate() const;
+};
+
+class ExperimentDesign {
+ public:
+  virtual ~ExperimentDesign() = default;
+  /// The next experiment. Throws ValidationError when the context offers nothing to push (no objects, none
+  /// reachable, malformed names) or lacks what the design needs; the design's state is then unchanged.
+  virtual ExperimentChoice next(const DesignContext& context) = 0;
+  virtual std::string name() const = 0;
+};
+
+/// Uniform over reachable objects, sides, offsets and distances (within the options' bounds).
+class RandomDesign : public ExperimentDesign {
+ public:
+  RandomDesign(unsigned long seed, DesignOptions options = {});
+  ExperimentChoice next(const DesignContext& context) override;
+  std::string name() const override { return "random"; }
+
+ private:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+};
+
+/**
+ * Cycles through objects x sides x grid_offsets x grid_distances in that nesting order (object outermost),
+ * skipping cells whose object is unreachable now. The cursor is the grid cell after the last one chosen; it
+ * wraps around.
+ */
+class GridDesign : public ExperimentDesign {
+ public:
+  explicit GridDesign(DesignOptions options = {});
+  ExperimentChoice next(const DesignContext& context) override;
+  std::string name() const override { return "grid"; }
+  /// Cells in the grid for @p objects objects.
+  std::size_t cells(std::size_t objects) const;
+
+ private:
+  DesignOptions options_;
+  std::size_t cursor_ = 0;
+};
+
+/**
+ * Samples `candidates` random pushes and chooses the one with the highest curiosity; with probability
+ * epsilon it chooses a uniformly random one of them instead, so every push keeps a chance of being tried.
+ * Ties go to the candidate sampled first (deterministic for a seed). A NaN curiosity is an error.
+ */
+class CuriosityDesign : public ExperimentDesign {
+ public:
+  CuriosityDesign(unsigned long seed, DesignOptions options = {});
+  ExperimentChoice next(const DesignContext& context) override;
+  std::string name() const override { return "curiosity"; }
+  /// Whether the last choice was an epsilon exploration (not the most curious candidate).
+  bool lastWasExploration() const { return last_exploration_; }
+
+ private:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+  bool last_exploration_ = false;
+};
+
+/// The designs makeDesign knows, in the order it lists them.
+std::vector<std::string> designNames();
+
+/// "curiosity" | "random" | "grid"; unknown names and bad options throw ValidationError.
+std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
+                                             const DesignOptions& options = {});
+
+}  // namespace xpersif::core

@@ -1,0 +1,206 @@
+/**
+ * @file experiment_design.cpp
+ * @brief Random, grid and curiosity-driven designs of the next push; see experiment_design.h.
+ */
+#include "xpersif/core/experiment_design.h"
+
+#include "xpersif/core/validation.h"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace xpersif::core {
+
+const std::vector<std::string> kPushSides{"-x", "+x", "-y", "+y"};
+
+namespace {
+
+std::string metres(double v) { return describeNumber(v) + " m"; }
+
+/// The reachable objects' names; throws ValidationError (and so changes nothing) when there are none.
+std::vector<std::string> reachableObjects(const DesignContext& context) {
+  if (context.objects.empty()) {
+    throw ValidationError("context.objects is empty; there is no object to design an experiment for");
+  }
+  std::vector<std::string> names;
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < context.objects.size(); ++i) {
+    const auto& o = context.objects[i];
+    requireIdentifier("context.objects[" + std::to_string(i) + "].name", o.name);
+    if (!seen.insert(o.name).second) {
+      throw ValidationError("context.objects[" + std::to_string(i) + "].name '" + o.name +
+                            "' is listed twice; object names must be unique");
+    }
+    if (o.reachable) names.push_back(o.name);
+  }
+  if (names.empty()) {
+    std::string all;
+    for (const auto& o : context.objects) all += (all.empty() ? "'" : ", '") + o.name + "'";
+    throw ValidationError("none of the objects (" + all + ") is reachable; there is nothing to push now");
+  }
+  return names;
+}
+
+ExperimentChoice sample(std::mt19937_64& rng, const std::vector<std::string>& objects, const DesignOptions& o) {
+  ExperimentChoice c;
+  c.object = objects[std::uniform_int_distribution<std::size_t>(0, objects.size() - 1)(rng)];
+  c.side = o.sides[std::uniform_int_distribution<std::size_t>(0, o.sides.size() - 1)(rng)];
+  c.offset = std::uniform_real_distribution<double>(o.min_offset, o.max_offset)(rng);
+  c.distance = std::uniform_real_distribution<double>(o.min_distance, o.max_distance)(rng);
+  return c;
+}
+
+}  // namespace
+
+std::string ExperimentChoice::toString() const {
+  return "push " + object + " on " + side + ", offset " + metres(offset) + ", distance " + metres(distance);
+}
+
+void DesignOptions::validate() const {
+  requireInRange("options.min_offset", min_offset, -kMaxPushOffset, kMaxPushOffset);
+  requireInRange("options.max_offset", max_offset, -kMaxPushOffset, kMaxPushOffset);
+  if (min_offset > max_offset) {
+    throw ValidationError("options.min_offset (" + metres(min_offset) + ") is greater than options.max_offset (" +
+                          metres(max_offset) + ")");
+  }
+  requirePositive("options.min_distance", min_distance);
+  requireInRange("options.min_distance", min_distance, 0, kMaxPushDistance);
+  requireInRange("options.max_distance", max_distance, 0, kMaxPushDistance);
+  if (min_distance > max_distance) {
+    throw ValidationError("options.min_distance (" + metres(min_distance) +
+                          ") is greater than options.max_distance (" + metres(max_distance) + ")");
+  }
+  if (sides.empty()) throw ValidationError("options.sides is empty; list at least one of -x, +x, -y, +y");
+  for (std::size_t i = 0; i < sides.size(); ++i) {
+    requireOneOf("options.sides[" + std::to_string(i) + "]", sides[i], kPushSides);
+  }
+  if (grid_offsets.empty()) throw ValidationError("options.grid_offsets is empty; list at least one offset");
+  for (std::size_t i = 0; i < grid_offsets.size(); ++i) {
+    requireInRange("options.grid_offsets[" + std::to_string(i) + "]", grid_offsets[i], -kMaxPushOffset,
+                   kMaxPushOffset);
+  }
+  if (grid_distances.empty()) throw ValidationError("options.grid_distances is empty; list at least one distance");
+  for (std::size_t i = 0; i < grid_distances.size(); ++i) {
+    requirePositive("options.grid_distances[" + std::to_string(i) + "]", grid_distances[i]);
+    requireInRange("options.grid_distances[" + std::to_string(i) + "]", grid_distances[i], 0, kMaxPushDistance);
+  }
+  if (candidates < 1 || candidates > 10000) {
+    throw ValidationError("options.candidates is " + std::to_string(candidates) + "; it must lie in [1, 10000]");
+  }
+  requireInRange("options.epsilon", epsilon, 0.0, 1.0);
+}
+
+// ---- random -----------------------------------------------------------------------------------------------
+
+RandomDesign::RandomDesign(unsigned long seed, DesignOptions options) : options_(std::move(options)), rng_(seed) {
+  options_.validate();
+}
+
+ExperimentChoice RandomDesign::next(const DesignContext& context) {
+  const auto objects = reachableObjects(context);
+  ExperimentChoice c = sample(rng_, objects, options_);
+  c.rationale = "random";
+  return c;
+}
+
+// ---- grid -------------------------------------------------------------------------------------------------
+
+GridDesign::GridDesign(DesignOptions options) : options_(std::move(options)) { options_.validate(); }
+
+std::size_t GridDesign::cells(std::size_t objects) const {
+  return objects * options_.sides.size() * options_.grid_offsets.size() * options_.grid_distances.size();
+}
+
+ExperimentChoice GridDesign::next(const DesignContext& context) {
+  reachableObjects(context);  // throws when nothing can be pushed: there is then always a reachable cell
+  const std::size_t per_object = cells(1);
+  const std::size_t total = cells(context.objects.size());
+  for (std::size_t k = 0; k < total; ++k) {
+    const std::size_t cell = (cursor_ + k) % total;
+    const auto& object = context.objects[cell / per_object];
+    if (!object.reachable) continue;
+    std::size_t rest = cell % per_object;
+    const std::size_t n_dist = options_.grid_distances.size();
+    const std::size_t n_off = options_.grid_offsets.size();
+    ExperimentChoice c;
+    c.object = object.name;
+    c.distance = options_.grid_distances[rest % n_dist];
+    rest /= n_dist;
+    c.offset = options_.grid_offsets[rest % n_off];
+    c.side = options_.sides[rest / n_off];
+    c.rationale = "grid cell " + std::to_string(cell + 1) + " of " + std::to_string(total);
+    cursor_ = (cell + 1) % total;
+    return c;
+  }
+  throw ValidationError("no grid cell has a reachable object");  // unreachable: reachableObjects checked
+}
+
+// ---- curiosity --------------------------------------------------------------------------------------------
+
+CuriosityDesign::CuriosityDesign(unsigned long seed, DesignOptions options)
+    : options_(std::move(options)), rng_(seed) {
+  options_.validate();
+}
+
+ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
+  const auto objects = reachableObjects(context);
+  if (!context.curiosity) {
+    throw ValidationError("context.curiosity is not set; the curiosity design needs MOTIVATION's expected "
+                          "learning progress (use the random or grid design without it)");
+  }
+  // Draw on a copy and commit only on success, so an error (a NaN curiosity) changes nothing.
+  std::mt19937_64 rng = rng_;
+  const bool explore = std::uniform_real_distribution<double>(0.0, 1.0)(rng) < options_.epsilon;
+  std::vector<ExperimentChoice> candidates;
+  candidates.reserve(options_.candidates);
+  for (std::size_t i = 0; i < options_.candidates; ++i) candidates.push_back(sample(rng, objects, options_));
+
+  std::size_t chosen = 0;
+  double value = 0;
+  if (explore) {
+    chosen = std::uniform_int_distribution<std::size_t>(0, candidates.size() - 1)(rng);
+    value = context.curiosity(candidates[chosen]);
+  } else {
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const double v = context.curiosity(candidates[i]);
+      if (std::isnan(v)) {
+        throw ValidationError("the curiosity of candidate '" + candidates[i].toString() +
+                              "' is NaN; expected learning progress must be a number");
+      }
+      if (i == 0 || v > value) {  // strict: ties keep the earlier candidate
+        chosen = i;
+        value = v;
+      }
+    }
+  }
+  if (std::isnan(value)) {
+    throw ValidationError("the curiosity of candidate '" + candidates[chosen].toString() +
+                          "' is NaN; expected learning progress must be a number");
+  }
+  rng_ = rng;
+  last_exploration_ = explore;
+  ExperimentChoice c = candidates[chosen];
+  std::ostringstream why;
+  if (explore) {
+    why << "exploration (epsilon " << describeNumber(options_.epsilon) << "), curiosity " << describeNumber(value);
+  } else {
+    why << "curiosity " << describeNumber(value) << ", best of " << candidates.size() << " candidates";
+  }
+  c.rationale = why.str();
+  return c;
+}
+
+// ---- factory ----------------------------------------------------------------------------------------------
+
+std::vector<std::string> designNames() { return {"curiosity", "random", "grid"}; }
+
+std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
+                                             const DesignOptions& options) {
+  requireOneOf("design", name, designNames());
+  if (name == "curiosity") return std::make_unique<CuriosityDesign>(seed, options);
+  if (name == "random") return std::make_unique<RandomDesign>(seed, options);
+  return std::make_unique<GridDesign>(options);
+}
+
+}  // namespace xpersif::core

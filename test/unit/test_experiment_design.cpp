@@ -1,0 +1,312 @@
+#include <gtest/gtest.h>
+
+#include "xpersif/core/experiment_design.h"
+#include "xpersif/core/validation.h"
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <tuple>
+
+using namespace xpersif::core;
+
+namespace {
+
+DesignContext cubes() {
+  DesignContext c;
+  c.objects = {{"red_cube", true}, {"green_cube", true}, {"yellow_cube", true}, {"blue_cube", true}};
+  return c;
+}
+
+bool same(const ExperimentChoice& a, const ExperimentChoice& b) {
+  return a.object == b.object && a.side == b.side && a.offset == b.offset && a.distance == b.distance;
+}
+
+std::vector<ExperimentChoice> run(ExperimentDesign& d, const DesignContext& c, int n) {
+  std::vector<ExperimentChoice> out;
+  for (int i = 0; i < n; ++i) out.push_back(d.next(c));
+  return out;
+}
+
+/// A smooth curiosity with its maximum at green_cube, +y, offset 0.01, distance 0.05.
+double peaked(const ExperimentChoice& e) {
+  return (e.object == "green_cube" ? 1.0 : 0.0) + (e.side == "+y" ? 0.5 : 0.0) -
+         100 * std::pow(e.offset - 0.01, 2) - 100 * std::pow(e.distance - 0.05, 2);
+}
+
+}  // namespace
+
+TEST(ExperimentDesign, SameSeedSameExperiments) {
+  DesignContext c = cubes();
+  c.curiosity = peaked;
+  for (const auto& name : designNames()) {
+    auto a = makeDesign(name, 7);
+    auto b = makeDesign(name, 7);
+    const auto ra = run(*a, c, 50);
+    const auto rb = run(*b, c, 50);
+    for (int i = 0; i < 50; ++i) EXPECT_TRUE(same(ra[i], rb[i])) << name << " #" << i;
+    EXPECT_EQ(a->name(), name);
+  }
+  // A different seed gives a different sequence (random and curiosity; the grid has no randomness).
+  for (const std::string name : {"random", "curiosity"}) {
+    auto a = makeDesign(name, 7);
+    auto b = makeDesign(name, 8);
+    const auto ra = run(*a, c, 20);
+    const auto rb = run(*b, c, 20);
+    int differ = 0;
+    for (int i = 0; i < 20; ++i) differ += !same(ra[i], rb[i]);
+    EXPECT_GT(differ, 10) << name;
+  }
+}
+
+TEST(RandomDesign, StaysInBoundsAndCoversObjectsAndSides) {
+  DesignOptions o;
+  o.min_offset = -0.005;
+  o.max_offset = 0.012;
+  o.min_distance = 0.04;
+  o.max_distance = 0.07;
+  o.sides = {"+x", "-y"};
+  RandomDesign d(42, o);
+  const DesignContext c = cubes();
+  std::map<std::string, int> objects, sides;
+  double lo_off = 1, hi_off = -1, lo_dist = 1, hi_dist = -1;
+  for (const auto& e : run(d, c, 2000)) {
+    ASSERT_GE(e.offset, o.min_offset);
+    ASSERT_LE(e.offset, o.max_offset);
+    ASSERT_GE(e.distance, o.min_distance);
+    ASSERT_LE(e.distance, o.max_distance);
+    ++objects[e.object];
+    ++sides[e.side];
+    lo_off = std::min(lo_off, e.offset);
+    hi_off = std::max(hi_off, e.offset);
+    lo_dist = std::min(lo_dist, e.distance);
+    hi_dist = std::max(hi_dist, e.distance);
+  }
+  EXPECT_EQ(objects.size(), 4u);
+  EXPECT_EQ(sides.size(), 2u);
+  EXPECT_EQ(sides.count("+x"), 1u);
+  EXPECT_EQ(sides.count("-y"), 1u);
+  for (const auto& [name, n] : objects) EXPECT_GT(n, 400) << name;  // 500 expected each
+  // Uniform: the samples spread over the whole range.
+  EXPECT_LT(lo_off, o.min_offset + 0.001);
+  EXPECT_GT(hi_off, o.max_offset - 0.001);
+  EXPECT_LT(lo_dist, o.min_distance + 0.002);
+  EXPECT_GT(hi_dist, o.max_distance - 0.002);
+}
+
+TEST(GridDesign, CoversEveryCellOnceThenRepeatsInOrder) {
+  GridDesign d;
+  const DesignContext c = cubes();
+  ASSERT_EQ(d.cells(4), 96u);
+  const auto first = run(d, c, 96);
+  std::set<std::tuple<std::string, std::string, double, double>> cells;
+  for (const auto& e : first) cells.insert({e.object, e.side, e.offset, e.distance});
+  EXPECT_EQ(cells.size(), 96u);
+  for (const auto& object : {"red_cube", "green_cube", "yellow_cube", "blue_cube"}) {
+    for (const auto& side : kPushSides) {
+      for (double offset : {-0.015, 0.0, 0.015}) {
+        for (double distance : {0.03, 0.06}) EXPECT_EQ(cells.count({object, side, offset, distance}), 1u);
+      }
+    }
+  }
+  // Object outermost, distance innermost.
+  EXPECT_EQ(first[0].toString(), "push red_cube on -x, offset -0.015 m, distance 0.03 m");
+  EXPECT_EQ(first[1].toString(), "push red_cube on -x, offset -0.015 m, distance 0.06 m");
+  EXPECT_EQ(first[2].toString(), "push red_cube on -x, offset 0 m, distance 0.03 m");
+  EXPECT_EQ(first[24].object, "green_cube");
+  EXPECT_EQ(first[0].rationale, "grid cell 1 of 96");
+  const auto second = run(d, c, 96);
+  for (int i = 0; i < 96; ++i) EXPECT_TRUE(same(first[i], second[i])) << i;
+}
+
+TEST(GridDesign, SkipsUnreachableObjects) {
+  GridDesign d;
+  DesignContext c = cubes();
+  c.objects[3].reachable = false;  // blue
+  std::set<std::tuple<std::string, std::string, double, double>> cells;
+  for (const auto& e : run(d, c, 72)) {
+    EXPECT_NE(e.object, "blue_cube");
+    cells.insert({e.object, e.side, e.offset, e.distance});
+  }
+  EXPECT_EQ(cells.size(), 72u);  // every reachable cell exactly once
+
+  // Reachability changing in the middle of the cycle: green's cells are skipped while it is unreachable.
+  GridDesign g;
+  DesignContext now = cubes();
+  run(g, now, 20);  // red cells 1..20
+  now.objects[1].reachable = false;
+  const auto next = run(g, now, 5);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(next[i].object, "red_cube");
+  EXPECT_EQ(next[4].object, "yellow_cube");
+  EXPECT_EQ(next[4].rationale, "grid cell 49 of 96");
+}
+
+TEST(CuriosityDesign, PicksTheMostCuriousCandidate) {
+  DesignOptions o;
+  o.epsilon = 0.0;
+  o.candidates = 16;
+  CuriosityDesign d(3, o);
+  DesignContext c = cubes();
+  std::vector<double> seen;
+  c.curiosity = [&](const ExperimentChoice& e) {
+    seen.push_back(peaked(e));
+    return seen.back();
+  };
+  for (int i = 0; i < 200; ++i) {
+    seen.clear();
+    const ExperimentChoice e = d.next(c);
+    ASSERT_EQ(seen.size(), 16u);
+    EXPECT_DOUBLE_EQ(peaked(e), *std::max_element(seen.begin(), seen.end()));
+    EXPECT_FALSE(d.lastWasExploration());
+    EXPECT_NE(e.rationale.find("best of 16"), std::string::npos) << e.rationale;
+  }
+}
+
+TEST(CuriosityDesign, MostlyExploitsAndStillExploresWithEpsilon) {
+  DesignOptions o;
+  o.epsilon = 0.2;
+  CuriosityDesign d(11, o);
+  DesignContext c = cubes();
+  c.curiosity = [](const ExperimentChoice& e) { return e.object == "green_cube" ? 1.0 : 0.0; };
+  int green = 0, explorations = 0, other_objects = 0;
+  const int n = 1000;
+  for (int i = 0; i < n; ++i) {
+    const ExperimentChoice e = d.next(c);
+    explorations += d.lastWasExploration();
+    if (e.object == "green_cube") {
+      ++green;
+    } else {
+      ++other_objects;
+      EXPECT_TRUE(d.lastWasExploration()) << "a greedy choice was not the most curious: " << e.toString();
+    }
+  }
+  // Expected: 20% explorations; 85% green (all greedy choices, a quarter of the explorations).
+  EXPECT_GT(explorations, 140);
+  EXPECT_LT(explorations, 260);
+  EXPECT_GT(green, 780);
+  EXPECT_GT(other_objects, 60);
+}
+
+TEST(CuriosityDesign, TiesGoToTheFirstSampledCandidate) {
+  DesignOptions o;
+  o.epsilon = 0.0;
+  CuriosityDesign d(5, o);
+  DesignContext c = cubes();
+  std::vector<ExperimentChoice> seen;
+  c.curiosity = [&](const ExperimentChoice& e) {
+    seen.push_back(e);
+    return 0.25;
+  };
+  for (int i = 0; i < 20; ++i) {
+    seen.clear();
+    const ExperimentChoice e = d.next(c);
+    ASSERT_FALSE(seen.empty());
+    EXPECT_TRUE(same(e, seen.front()));
+  }
+}
+
+TEST(ExperimentDesign, UnreachableObjectsAreNeverChosen) {
+  DesignContext c = cubes();
+  c.objects[0].reachable = false;
+  c.objects[3].reachable = false;
+  // Curiosity that would love the unreachable ones.
+  c.curiosity = [](const ExperimentChoice& e) { return e.object == "red_cube" || e.object == "blue_cube" ? 9.0 : 0.0; };
+  for (const auto& name : designNames()) {
+    auto d = makeDesign(name, 1);
+    for (const auto& e : run(*d, c, 300)) {
+      EXPECT_TRUE(e.object == "green_cube" || e.object == "yellow_cube") << name << ": " << e.toString();
+    }
+  }
+}
+
+TEST(ExperimentDesign, NothingToPushIsAClearError) {
+  DesignContext empty;
+  empty.curiosity = peaked;
+  DesignContext none = cubes();
+  none.curiosity = peaked;
+  for (auto& o : none.objects) o.reachable = false;
+  for (const auto& name : designNames()) {
+    auto d = makeDesign(name, 1);
+    try {
+      d->next(empty);
+      FAIL() << name << " accepted an empty object list";
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find("context.objects is empty"), std::string::npos) << e.what();
+    }
+    try {
+      d->next(none);
+      FAIL() << name << " chose an unreachable object";
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find("is reachable"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'blue_cube'"), std::string::npos) << e.what();
+    }
+  }
+  DesignContext twice = cubes();
+  twice.objects[1].name = "red_cube";
+  EXPECT_THROW(RandomDesign(1).next(twice), ValidationError);
+  DesignContext bad_name = cubes();
+  bad_name.objects[0].name = "red cube";
+  EXPECT_THROW(GridDesign().next(bad_name), ValidationError);
+}
+
+TEST(CuriosityDesign, NeedsACuriosityThatIsANumberAndAnErrorChangesNothing) {
+  CuriosityDesign d(9);
+  DesignContext c = cubes();
+  EXPECT_THROW(d.next(c), ValidationError);  // no callback
+  c.curiosity = [](const ExperimentChoice&) { return std::nan(""); };
+  EXPECT_THROW(d.next(c), ValidationError);
+  c.curiosity = peaked;
+  CuriosityDesign fresh(9);
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(same(d.next(c), fresh.next(c))) << i;
+}
+
+TEST(ExperimentDesign, FactoryAndOptionsAreValidated) {
+  try {
+    makeDesign("bandit", 1);
+    FAIL() << "unknown design accepted";
+  } catch (const ValidationError& e) {
+    const std::string what = e.what();
+    for (const auto& name : designNames()) EXPECT_NE(what.find("'" + name + "'"), std::string::npos) << what;
+    EXPECT_NE(what.find("'bandit'"), std::string::npos) << what;
+  }
+  auto expectInvalid = [](DesignOptions o, const std::string& field) {
+    try {
+      makeDesign("random", 1, o);
+      FAIL() << field << " accepted";
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  DesignOptions o;
+  o.min_offset = -0.03;
+  expectInvalid(o, "options.min_offset");
+  o = {};
+  o.min_offset = 0.01;
+  o.max_offset = 0.0;
+  expectInvalid(o, "options.min_offset");
+  o = {};
+  o.min_distance = 0.0;
+  expectInvalid(o, "options.min_distance");
+  o = {};
+  o.max_distance = 0.2;
+  expectInvalid(o, "options.max_distance");
+  o = {};
+  o.max_distance = std::nan("");
+  expectInvalid(o, "options.max_distance");
+  o = {};
+  o.sides = {"+z"};
+  expectInvalid(o, "options.sides[0]");
+  o = {};
+  o.grid_distances = {0.03, 0.0};
+  expectInvalid(o, "options.grid_distances[1]");
+  o = {};
+  o.grid_offsets = {0.025};
+  expectInvalid(o, "options.grid_offsets[0]");
+  o = {};
+  o.epsilon = 1.5;
+  expectInvalid(o, "options.epsilon");
+  o = {};
+  o.candidates = 0;
+  expectInvalid(o, "options.candidates");
+  EXPECT_NO_THROW(makeDesign("grid", 1, DesignOptions{}));
+}
