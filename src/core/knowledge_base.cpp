@@ -489,8 +489,13 @@ std::vector<ExperimentRecord> KnowledgeBase::experiments(std::int64_t run_id, co
     r.experiment.side = select.text(4);
     r.experiment.offset = select.real(5);
     r.experiment.distance = select.real(6);
-    r.before = featureVectorFromJson(select.text(7));
-    r.after = featureVectorFromJson(select.text(8));
+    try {
+      r.before = featureVectorFromJson(select.text(7));
+      r.after = featureVectorFromJson(select.text(8));
+    } catch (const ValidationError& e) {  // written by another tool: the database is at fault, not the caller
+      throw KnowledgeBaseError("knowledge base '" + path_ + "' experiment " + std::to_string(r.id) +
+                               " holds a feature vector this program cannot read: " + e.what());
+    }
     if (!select.isNull(9)) r.outcome = Outcome{select.real(9), select.real(10), select.real(11)};
     if (!select.isNull(12)) {
       r.prediction = Prediction{{select.real(12), select.real(13), select.real(14)},

@@ -22,6 +22,16 @@ constexpr double kDistanceScale = 0.03;  // m
 constexpr std::size_t kFingerprintProbes = 8;
 constexpr double kNoiseFloor = 0.05;  // of the prior std: the noise assumed where samples show none
 
+/// FileStorage reads a written string that starts with '[' or '{' as the start of a structure: every name
+/// from outside is written behind this mark and read back without it.
+constexpr char kMark = '=';
+std::string marked(const std::string& text) { return kMark + text; }
+std::vector<std::string> marked(const std::vector<std::string>& texts) {
+  std::vector<std::string> out;
+  for (const auto& t : texts) out.push_back(marked(t));
+  return out;
+}
+
 double component(const Outcome& o, int k) { return k == 0 ? o.dx : (k == 1 ? o.dy : o.dyaw); }
 void setComponent(Outcome& o, int k, double v) { (k == 0 ? o.dx : (k == 1 ? o.dy : o.dyaw)) = v; }
 
@@ -304,15 +314,15 @@ std::string PushLearner::save() const {
   // FileStorage keys must be identifiers, and feature names need not be: write the config as lists.
   cv::FileStorage out(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   out << "format" << kFormat;
-  out << "feature_names" << c.feature_names;
+  out << "feature_names" << marked(c.feature_names);
   std::vector<std::string> scale_names;
   std::vector<double> scale_values;
   for (const auto& [name, scale] : c.feature_scales) {
-    scale_names.push_back(name);
+    scale_names.push_back(marked(name));
     scale_values.push_back(scale);
   }
   out << "feature_scale_names" << scale_names << "feature_scale_values" << scale_values;
-  out << "one_hot_identity" << static_cast<int>(c.one_hot_identity) << "identities" << c.identities;
+  out << "one_hot_identity" << static_cast<int>(c.one_hot_identity) << "identities" << marked(c.identities);
   out << "ensemble_size" << c.ensemble_size << "trees_per_member" << c.trees_per_member;
   out << "max_depth" << c.max_depth << "min_sample_count" << c.min_sample_count;
   out << "seed" << std::to_string(c.seed);  // 64 bits do not fit FileStorage's int
@@ -322,7 +332,7 @@ std::string PushLearner::save() const {
   out << "samples" << "[";
   for (const auto& s : samples_) {
     out << "{";
-    out << "object" << s.input.experiment.object << "side" << s.input.experiment.side;
+    out << "object" << marked(s.input.experiment.object) << "side" << marked(s.input.experiment.side);
     out << "offset" << s.input.experiment.offset << "distance" << s.input.experiment.distance;
     out << "pose" << std::vector<double>{s.input.object.x, s.input.object.y, s.input.object.yaw};
     std::vector<double> features;
@@ -368,13 +378,18 @@ std::vector<double> doubles(const cv::FileNode& node, const std::string& what, s
   return values;
 }
 
+std::string unmarked(const std::string& text, const std::string& what) {
+  if (text.empty() || text[0] != kMark) badModel("'" + what + "' holds an unmarked name");
+  return text.substr(1);
+}
+
 std::vector<std::string> strings(const cv::FileNode& node, const std::string& what) {
   std::vector<std::string> values;
   if (node.empty() || node.isNone()) return values;  // OpenCV writes an empty list as nothing useful
   if (!node.isSeq()) badModel("'" + what + "' is not a list");
   for (const auto& item : node) {
     if (!item.isString()) badModel("'" + what + "' holds a non-string");
-    values.push_back(static_cast<std::string>(item));
+    values.push_back(unmarked(static_cast<std::string>(item), what));
   }
   return values;
 }
@@ -443,8 +458,8 @@ void PushLearner::load(const std::string& bytes) {
       for (const auto& node : list) {
         if (!node.isMap()) badModel("a sample is not a map");
         PushSample s;
-        s.input.experiment.object = text(node["object"], "samples.object");
-        s.input.experiment.side = text(node["side"], "samples.side");
+        s.input.experiment.object = unmarked(text(node["object"], "samples.object"), "samples.object");
+        s.input.experiment.side = unmarked(text(node["side"], "samples.side"), "samples.side");
         s.input.experiment.offset = real(node["offset"], "samples.offset");
         s.input.experiment.distance = real(node["distance"], "samples.distance");
         const auto pose = doubles(node["pose"], "samples.pose", 3);

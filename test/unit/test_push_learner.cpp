@@ -193,6 +193,23 @@ TEST(PushLearner, SaveLoadGivesIdenticalPredictions) {
   loaded.addSamples(more);
   const PushInput probe = inputFor(kCubes[1], "+y", 0.01, 0.07);
   EXPECT_EQ(learner.predict(probe).mean.dx, loaded.predict(probe).mean.dx);
+  // Names that YAML or FileStorage would read as structure ('[', '{', ':', quotes) survive the round trip.
+  PushLearnerConfig odd_config;
+  odd_config.feature_names = {"{hue}", "[size]"};
+  odd_config.feature_scales = {{"{hue}", 30.0}};
+  PushLearner odd(odd_config);
+  std::vector<PushSample> odd_samples = pushes(6, 6);
+  for (auto& s : odd_samples) {
+    s.input.experiment.object = s.input.object.name = "[odd]: \"cube\" #1";
+    s.input.object.extra = {{"{hue}", 1.0}, {"[size]", 0.04}};
+  }
+  odd.addSamples(odd_samples);
+  PushLearner odd_loaded;
+  odd_loaded.load(odd.save());
+  EXPECT_EQ(odd_loaded.samples().at(0).input.experiment.object, "[odd]: \"cube\" #1");
+  EXPECT_EQ(odd_loaded.config().feature_names, odd_config.feature_names);
+  EXPECT_EQ(odd_loaded.config().feature_scales, odd_config.feature_scales);
+  EXPECT_EQ(odd_loaded.predict(odd_samples[0].input).mean.dx, odd.predict(odd_samples[0].input).mean.dx);
   // An empty learner round-trips too.
   PushLearner empty, empty_loaded;
   empty_loaded.load(empty.save());
