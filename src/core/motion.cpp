@@ -65,11 +65,7 @@ void requireUpdateInput(const Pose2D& current, double dt) {
 
 }  // namespace
 
-double normalizeAngle(double angle) {
-  if (!std::isfinite(angle)) return angle;
-  angle = std::remainder(angle, 2.0 * kPi);  // [-pi, pi]
-  return angle <= -kPi ? angle + 2.0 * kPi : angle;
-}
+double normalizeAngle(double angle) { return wrapAngle(angle); }
 
 std::string checkPose(const std::string& field, const Pose2D& pose) {
   for (auto [name, value] : {std::pair<const char*, double>{"x", pose.x}, {"y", pose.y}, {"yaw", pose.yaw}}) {

@@ -6,11 +6,6 @@
 
 namespace xpersif::core {
 
-double wrapAngle(double angle) {
-  angle = std::remainder(angle, 2.0 * M_PI);
-  return angle <= -M_PI ? angle + 2.0 * M_PI : angle;
-}
-
 Pose2D compose(const Pose2D& a, const Pose2D& b) {
   const double c = std::cos(a.yaw), s = std::sin(a.yaw);
   return {a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, wrapAngle(a.yaw + b.yaw)};

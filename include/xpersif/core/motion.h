@@ -32,7 +32,7 @@ struct Velocity2D {
   double angular = 0;  ///< rad/s, counter-clockwise positive
 };
 
-/// Angle wrapped into (-pi, pi].
+/// Angle wrapped into (-pi, pi] (the same as wrapAngle, pose2d.h).
 double normalizeAngle(double angle);
 /// "" when x, y and yaw are finite, else a sentence naming @p field (e.g. "goal.x is NaN; ...").
 std::string checkPose(const std::string& field, const Pose2D& pose);

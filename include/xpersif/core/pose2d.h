@@ -10,4 +10,7 @@ struct Pose2D {
   double x = 0, y = 0, yaw = 0;
 };
 
+/// Angle wrapped into (-pi, pi].
+double wrapAngle(double angle);
+
 }  // namespace xpersif::core

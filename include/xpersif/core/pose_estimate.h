@@ -21,8 +21,6 @@ namespace xpersif::core {
 /// a then b (b expressed in a's frame).
 Pose2D compose(const Pose2D& a, const Pose2D& b);
 Pose2D inverse(const Pose2D& a);
-/// Angle wrapped into (-pi, pi].
-double wrapAngle(double angle);
 
 class OdometryCorrection {
  public:

@@ -1,0 +1,143 @@
+/**
+ * @file push_learner.h
+ * @brief MACHINELEARNING's model of pushing: it learns, one push at a time, to predict how an object moves
+ *        (dx, dy, dyaw in the push frame, see experiment.h) for a push, with an estimate of its own
+ *        uncertainty; and it turns what it has seen into notions (learned symbolic facts).
+ *
+ * The model. A bootstrap ensemble of OpenCV random forests (cv::ml::RTrees), one forest per ensemble member and
+ * output, each member trained on a bootstrap resample of the samples.
+ *  - Why forests: they need no feature scaling, cope with few samples, capture the non-linear and
+ *    discontinuous effects of pushing (a heavy object does not move at all, a light one moves with the push)
+ *    and train in milliseconds for the few hundred pushes of a run.
+ *  - Why an ensemble: the spread of the members' predictions is the model's uncertainty about its mean
+ *    (the classic bootstrap estimate); their out-of-bag residuals, averaged over the nearest samples, give the
+ *    noise of the outcome around the mean where data exist (a light cube's outcome varies, a heavy cube's
+ *    does not).
+ *  - Why a novelty term as well: trees extrapolate flat, so far from every sample all members agree and the
+ *    spread alone would claim certainty about pushes never tried. The learner counts the samples near the
+ *    query, n_eff = sum_i exp(-d_i^2 / (2 L^2)) with d_i the distance to sample i in scaled input units, and
+ *    adds the posterior variance of a local mean under the prior after n_eff observations of noise sigma^2:
+ *    prior^2 sigma^2 / (sigma^2 + n_eff prior^2). It is the prior far from data and vanishes near data.
+ *    variance = spread^2 + noise^2 + prior^2 sigma^2 / (sigma^2 + n_eff prior^2)        (per output)
+ *    with noise^2 the mean out-of-bag residual^2 of the nearest samples and sigma^2 = max(noise^2,
+ *    (0.05 prior)^2).
+ *  Before the first kMinTrainingSamples samples it predicts zero motion with the prior std.
+ *
+ * The input. Not the object's name alone, so that what is learned carries over to objects that look alike:
+ * the push direction in the object's frame (cos, sin of pushAngleInObject(side)), the offset, the distance,
+ * the object's observed features named in the config (e.g. "hue", "size"), and, optionally, a one-hot code of
+ * the object's identity.
+ *
+ * Determinism. Bootstrap resamples are drawn with cv::RNG seeded from the config's seed; OpenCV's RTrees seeds
+ * its own generator at every training. The same samples in the same order give the same predictions, so
+ * training offline from recorded pushes gives the model the live run had. After kRetrainEveryUpTo samples the
+ * model retrains every kRetrainStride samples; the model after n samples is always the one trained on the first
+ * trainedCount(n) samples, whether they came one by one or in a batch.
+ *
+ * Not thread-safe: one owner (the MACHINELEARNING component) calls it.
+ */
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "xpersif/core/experiment.h"
+
+namespace xpersif::core {
+
+/// What the learner sees of a push: the push and the pushed object's features just before it.
+struct PushInput {
+  Experiment experiment;
+  ObjectFeatures object;  ///< object.name must equal experiment.object
+};
+
+struct PushSample {
+  PushInput input;
+  Outcome outcome;
+};
+
+struct PushLearnerConfig {
+  /// Extra features of the object used as inputs; every sample must carry them.
+  std::vector<std::string> feature_names{"hue", "size"};
+  /// One unit of each feature for the novelty distance (what counts as "a different object"); default 1.
+  std::map<std::string, double> feature_scales{{"hue", 30.0}, {"size", 0.01}};
+  /// Add a one-hot code of the object's name over `identities` (unknown names get all zeros).
+  bool one_hot_identity = false;
+  std::vector<std::string> identities;
+  int ensemble_size = 8;        ///< bootstrap members
+  int trees_per_member = 16;    ///< trees in each member's forest
+  int max_depth = 10;
+  int min_sample_count = 2;     ///< smallest node a tree splits
+  std::uint64_t seed = 1;
+  Outcome prior_std{0.10, 0.05, 0.5};  ///< m, m, rad: the std with no data nearby
+  double novelty_length = 0.5;         ///< L, in scaled input units (offset: 1 cm, distance: 3 cm, direction: 1)
+  int noise_neighbours = 8;            ///< samples whose out-of-bag residuals give the local noise
+};
+
+class PushLearner {
+ public:
+  static constexpr std::size_t kMinTrainingSamples = 3;
+  static constexpr std::size_t kRetrainEveryUpTo = 500;
+  static constexpr std::size_t kRetrainStride = 10;
+  static constexpr std::size_t kMaxSamples = 100000;
+
+  /// Throws ValidationError for a bad config (sizes < 1, non-positive scales or stds).
+  explicit PushLearner(PushLearnerConfig config = {});
+  ~PushLearner();
+  PushLearner(PushLearner&&) noexcept;
+  PushLearner& operator=(PushLearner&&) noexcept;
+
+  /// Validate, store and learn from one push. Bad input throws ValidationError and changes nothing.
+  void addSample(const PushInput& input, const Outcome& outcome);
+  /// Same as adding them one by one (the same model results), but trains once.
+  void addSamples(const std::vector<PushSample>& samples);
+
+  /// Throws ValidationError for bad input (NaN, unknown side, missing feature...).
+  Prediction predict(const PushInput& input) const;
+
+  std::size_t sampleCount() const { return samples_.size(); }
+  /// How many of the first samples the current model was trained on.
+  std::size_t trainedCount() const { return trained_count_; }
+  const std::vector<PushSample>& samples() const { return samples_; }
+  const PushLearnerConfig& config() const { return config_; }
+
+  /// The model as bytes (OpenCV FileStorage YAML): config, samples and a fingerprint of its predictions.
+  std::string save() const;
+  /// Replace this learner by the one in @p bytes (retrained deterministically from its samples and checked
+  /// against the fingerprint). Malformed bytes throw ValidationError and change nothing.
+  void load(const std::string& bytes);
+  static constexpr const char* kFormat = "xpersif-push-learner/1";
+
+  /// The encoded input row (for tests and tools).
+  std::vector<float> encode(const PushInput& input) const;
+
+ private:
+  struct Model;
+  void validate(const PushInput& input, const std::string& field) const;
+  void retrain();
+  static std::size_t modelSize(std::size_t n);
+
+  PushLearnerConfig config_;
+  std::vector<PushSample> samples_;
+  std::size_t trained_count_ = 0;
+  std::unique_ptr<Model> model_;
+};
+
+/// Learned facts from pushes, per object (objects in name order). Predicates:
+///  - "does_not_move_when_pushed": median |displacement| / distance < 0.1 over >= 3 pushes;
+///    value = that median ratio; confidence = the share of pushes below the threshold.
+///  - "moves_when_pushed": otherwise, over >= 3 pushes; value = mean displacement ratio; confidence = the share
+///    of pushes above the threshold.
+///  - "slides_further_than_pushed": moves and its median ratio > 1.05; value = median ratio; confidence = share
+///    of pushes with ratio > 1.
+///  - "rotates_when_pushed_off_centre": moves, >= 5 off-centre pushes (|offset| >= 0.004), |dyaw| correlates
+///    with |offset| (Pearson r >= 0.5) and the sign of dyaw follows the sign of the offset in >= 80 %
+///    of them; value = the signed correlation of dyaw with offset (negative: turns away from the contact side);
+///    confidence = the share of sign agreement.
+/// Throws ValidationError for invalid samples.
+std::vector<Notion> deriveNotions(const std::vector<PushSample>& samples);
+
+}  // namespace xpersif::core
