@@ -769,6 +769,7 @@ void PushController::start(const PushPlan& plan, const std::vector<Pose2D>& appr
   elapsed_ = 0;
   best_along_ = -std::numeric_limits<double>::infinity();
   since_progress_ = 0;
+  progress_ = 0;
   reason_.clear();
 }
 
@@ -836,7 +837,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
     fb.done = phase_ == PushPhase::Done;
     fb.failed = phase_ == PushPhase::Failed;
     fb.reason = reason_;
-    fb.progress = phase_ == PushPhase::Done ? 1.0 : 0.0;
+    fb.progress = phase_ == PushPhase::Done ? 1.0 : progress_;
     return fb;
   }
   elapsed_ += dt;
@@ -862,7 +863,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
       fb.command = last_command_ = m.command;
       fb.phase = phase_;
       done_length = std::max(0.0, approach_length_ - m.distance_remaining);
-      fb.progress = total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0;
+      fb.progress = progress_ = std::max(progress_, total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0);
       return fb;
     }
     phase_ = PushPhase::Contact;
@@ -914,7 +915,8 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
   if (phase_ == PushPhase::Retreat) {
     done_length = approach_length_ + standoff + plan_.distance + std::clamp(plan_.distance - pushed, 0.0, back);
   }
-  fb.progress = total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0;
+  // Never backwards: turning in place and noise make the measured share wobble.
+  fb.progress = progress_ = std::max(progress_, total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0);
   return fb;
 }
 

@@ -364,7 +364,7 @@ class PushController {
   PushPlan plan_;
   PushPhase phase_ = PushPhase::Idle;
   double approach_length_ = 0, total_length_ = 0;
-  double elapsed_ = 0, best_along_ = 0, since_progress_ = 0;
+  double elapsed_ = 0, best_along_ = 0, since_progress_ = 0, progress_ = 0;
   Velocity2D last_command_;
   std::string reason_;
 };
