@@ -97,8 +97,9 @@ TEST(GoToPose, ReachesRandomPosesWithinOneCentimetreAndThreeDegreesOfGroundTruth
     worst_yaw = std::max(worst_yaw, dyaw);
     worst_odom_position = std::max(worst_odom_position, distance(odometry(world), goal));
     if (std::getenv("MOTION_VERBOSE"))
-      std::printf("move %d took %.2f truth err %.2f mm %.2f deg, odom-truth %.2f mm %.2f deg\n", i, took, dp * 1000,
-                  dyaw * 180 / kPi, distance(odometry(world), real) * 1000, yawDiff(odometry(world).yaw, real.yaw) * 180 / kPi);
+      std::printf("move %d took %.2f truth err %.2f mm %.2f deg, odom-truth %.2f mm %.2f deg\n", i, took,
+                  dp * 1000, dyaw * 180 / kPi, distance(odometry(world), real) * 1000,
+                  yawDiff(odometry(world).yaw, real.yaw) * 180 / kPi);
     EXPECT_LT(dp, 0.01) << "move " << i;
     EXPECT_LT(dyaw, 3.0 * kPi / 180.0) << "move " << i;
   }
@@ -387,7 +388,9 @@ TEST(Push, OffCentrePushesRotateTheCubeTheWayTheOffsetSays) {
     ASSERT_TRUE(o.last.done) << offset << ": " << o.last.reason;
     const double turned = normalizeAngle(o.after.yaw - o.before.yaw);
     const auto [along, across] = alongAcross(o);
-    if (std::fabs(offset) >= 0.02) EXPECT_GT(std::fabs(turned), 1.5 * kPi / 180.0) << "offset " << offset;
+    if (std::fabs(offset) >= 0.02) {
+      EXPECT_GT(std::fabs(turned), 1.5 * kPi / 180.0) << "offset " << offset;
+    }
     EXPECT_EQ(turned < 0, offset > 0) << "offset " << offset << " turned " << turned;
     EXPECT_GT(along, 0.09);
     std::printf("[ measured ] red_cube pushed 120 mm with offset %+.0f mm: turned %+.2f deg, moved %.1f mm along, "
@@ -440,4 +443,41 @@ TEST(Push, BadRequestsAreRejectedWithReasons) {
   EXPECT_NEAR(ok.object_end.x, 0.10, 1e-12);
   const PushPlan rotated = planPush(yellow, {"yellow_cube", "-y", 0, 0.03}, kRobotRadius, arena, all);
   EXPECT_NEAR(rotated.direction, 0.4 + kPi / 2, 1e-12);
+}
+
+TEST(Controllers, FailWithAReasonWhenTheRobotMakesNoProgress) {
+  // A robot that does not move whatever it is told (blocked, or its pose is stuck): the phase fails.
+  GoToPoseOptions options;
+  options.stall_time = 2.0;
+  GoToPoseController controller(MotionLimits{}, options);
+  controller.setGoal({0.2, 0.0, 0.0});
+  MotionFeedback fb;
+  double t = 0;
+  for (; t < 10.0 && !fb.failed; t += kControlPeriod) fb = controller.update({0.0, 0.0, 0.0}, kControlPeriod);
+  ASSERT_TRUE(fb.failed);
+  EXPECT_NEAR(t, 2.0, 0.1);
+  EXPECT_NE(fb.reason.find("no progress for 2 s in phase drive"), std::string::npos) << fb.reason;
+  EXPECT_EQ(fb.command.linear, 0.0);
+
+  PushPlan plan = planPush({"red_cube", 0.0, 0.0, 0.0, 0.04}, {"red_cube", "-x", 0.0, 0.05}, kRobotRadius,
+                           {0.9, 0.6}, {});
+  ASSERT_TRUE(plan.ok) << plan.reason;
+  PushControlOptions push_options;
+  push_options.stall_time = 2.0;
+  PushController push(MotionLimits{}, push_options);
+  push.start(plan);
+  PushFeedback pf;
+  for (t = 0; t < 10.0 && !pf.failed; t += kControlPeriod) pf = push.update(plan.approach, kControlPeriod);
+  ASSERT_TRUE(pf.failed);
+  EXPECT_NE(pf.reason.find("failed in contact: no progress along the push line"), std::string::npos) << pf.reason;
+  EXPECT_EQ(push.phase(), PushPhase::Failed);
+
+  push_options.timeout = 1.0;
+  PushController impatient(MotionLimits{}, push_options);
+  impatient.start(plan, {{-0.3, 0.2, 0.0}});
+  pf = PushFeedback{};
+  for (t = 0; t < 10.0 && !pf.failed; t += kControlPeriod) pf = impatient.update({-0.3, -0.2, 0.0}, kControlPeriod);
+  ASSERT_TRUE(pf.failed);
+  EXPECT_NEAR(t, 1.0, 0.05);
+  EXPECT_NE(pf.reason.find("timeout of 1 s"), std::string::npos) << pf.reason;
 }
