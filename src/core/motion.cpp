@@ -293,7 +293,8 @@ MotionFeedback GoToPoseController::update(const Pose2D& current, double dt) {
     // Done inside the tolerance once close to its centre or once the error changed sign (turned past it).
     const bool crossed = (yaw_error > 0) != (last_yaw_error_ > 0);
     last_yaw_error_ = yaw_error;
-    if (std::fabs(yaw_error) <= options_.yaw_tolerance && (crossed || std::fabs(yaw_error) <= options_.yaw_tolerance / 3.0)) {
+    const double abs_error = std::fabs(yaw_error);
+    if (abs_error <= options_.yaw_tolerance && (crossed || abs_error <= options_.yaw_tolerance / 3.0)) {
       return finish(MotionPhase::Done, "", distance, yaw_error);
     }
     wanted.angular = turnRate(yaw_error, limits_);
@@ -749,7 +750,9 @@ void PushController::start(const PushPlan& plan, const std::vector<Pose2D>& appr
     throwIfInvalid(checkPose(name, pose));
   }
   std::vector<Pose2D> path = approach_path;
-  for (std::size_t i = 0; i < path.size(); ++i) throwIfInvalid(checkPose("approach_path[" + std::to_string(i) + "]", path[i]));
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    throwIfInvalid(checkPose("approach_path[" + std::to_string(i) + "]", path[i]));
+  }
   if (path.empty() || std::hypot(path.back().x - plan.approach.x, path.back().y - plan.approach.y) > 0.001) {
     path.push_back(plan.approach);
   }
@@ -765,6 +768,7 @@ void PushController::start(const PushPlan& plan, const std::vector<Pose2D>& appr
   elapsed_ = 0;
   best_along_ = -std::numeric_limits<double>::infinity();
   since_progress_ = 0;
+  progress_ = 0;
   reason_.clear();
 }
 
@@ -798,8 +802,8 @@ PushFeedback PushController::fail(const std::string& reason) {
 }
 
 // Drive along the push line (through plan.contact, direction plan.direction) towards @p to, forwards or
-// backwards, holding the heading on the line; with @p brake slowing down before @p to. along_out: signed distance of the robot past @p to along the
-// direction of travel (negative while on the way).
+// backwards, holding the heading on the line; with @p brake slowing down before @p to. along_out: signed
+// distance of the robot past @p to along the direction of travel (negative while on the way).
 PushFeedback PushController::lineControl(const Pose2D& current, double dt, const Pose2D& to, double speed,
                                          bool backwards, bool brake, double& along_out) {
   const double dx = std::cos(plan_.direction), dy = std::sin(plan_.direction);
@@ -832,7 +836,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
     fb.done = phase_ == PushPhase::Done;
     fb.failed = phase_ == PushPhase::Failed;
     fb.reason = reason_;
-    fb.progress = phase_ == PushPhase::Done ? 1.0 : 0.0;
+    fb.progress = phase_ == PushPhase::Done ? 1.0 : progress_;
     return fb;
   }
   elapsed_ += dt;
@@ -847,6 +851,9 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
 
   PushFeedback fb;
   double done_length = 0;  // for progress
+  auto share = [&](double length) {
+    return total_length_ > 0 ? std::clamp(length / total_length_, 0.0, 1.0) : 0.0;
+  };
   if (phase_ == PushPhase::Approach) {
     MotionFeedback m = follower_.update(current, dt);
     if (approach_length_ < 0) {
@@ -858,7 +865,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
       fb.command = last_command_ = m.command;
       fb.phase = phase_;
       done_length = std::max(0.0, approach_length_ - m.distance_remaining);
-      fb.progress = total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0;
+      fb.progress = progress_ = std::max(progress_, share(done_length));
       return fb;
     }
     phase_ = PushPhase::Contact;
@@ -910,7 +917,8 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
   if (phase_ == PushPhase::Retreat) {
     done_length = approach_length_ + standoff + plan_.distance + std::clamp(plan_.distance - pushed, 0.0, back);
   }
-  fb.progress = total_length_ > 0 ? std::clamp(done_length / total_length_, 0.0, 1.0) : 0.0;
+  // Never backwards: turning in place and noise make the measured share wobble.
+  fb.progress = progress_ = std::max(progress_, share(done_length));
   return fb;
 }
 

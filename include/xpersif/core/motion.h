@@ -338,8 +338,11 @@ class PushController {
   /// @throws ValidationError for bad limits or options
   explicit PushController(MotionLimits limits = {}, PushControlOptions options = {});
 
-  /// @p approach_path: waypoints from the current pose to plan.approach (PathPlanner::plan's); empty means
-  /// "drive straight to plan.approach". @throws ValidationError if !plan.ok or a pose is not finite
+  /// @p approach_path: waypoints from the current pose to plan.approach, typically PathPlanner::plan(current,
+  /// plan.approach).waypoints with every cube (the pushed one included) as an obstacle; empty means "drive
+  /// straight to plan.approach". The last waypoint is replaced by plan.approach (facing the push direction)
+  /// and reached with GoToPoseOptions' defaults (5 mm, 1.5 deg). @throws ValidationError if !plan.ok or a
+  /// pose is not finite
   void start(const PushPlan& plan, const std::vector<Pose2D>& approach_path = {});
   /// @throws ValidationError if @p current or @p dt is bad
   PushFeedback update(const Pose2D& current, double dt);
@@ -362,7 +365,7 @@ class PushController {
   PushPlan plan_;
   PushPhase phase_ = PushPhase::Idle;
   double approach_length_ = 0, total_length_ = 0;
-  double elapsed_ = 0, best_along_ = 0, since_progress_ = 0;
+  double elapsed_ = 0, best_along_ = 0, since_progress_ = 0, progress_ = 0;
   Velocity2D last_command_;
   std::string reason_;
 };
