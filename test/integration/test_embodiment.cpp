@@ -162,7 +162,7 @@ TEST_F(Embodiment, GoToPoseReachesPosesWithin1cmAnd3Degrees) {
     const auto state = run(client, goTo(t.x, t.y, t.yaw));
     ASSERT_EQ(state, actionlib::SimpleClientGoalState::SUCCEEDED) << state.getText();
     ros::Duration(0.2).sleep();
-    const Planar p = truth_->pose("base_link");
+    const Planar p = truth_->pose("khepera");
     EXPECT_LT(std::hypot(p.x - t.x, p.y - t.y), 0.01) << "at " << p.x << ", " << p.y;
     EXPECT_LT(std::abs(wrap(p.yaw - t.yaw)), 3 * M_PI / 180) << "yaw " << p.yaw;
   }
@@ -173,7 +173,7 @@ TEST_F(Embodiment, GoToPoseOnTheOverheadCameraAlsoArrives) {
   const auto state = run(client, goTo(-0.25, 0.15, 0.5, "observation"));
   ASSERT_EQ(state, actionlib::SimpleClientGoalState::SUCCEEDED) << state.getText();
   ros::Duration(0.2).sleep();
-  const Planar p = truth_->pose("base_link");
+  const Planar p = truth_->pose("khepera");
   EXPECT_LT(std::hypot(p.x + 0.25, p.y - 0.15), 0.01);
   EXPECT_LT(std::abs(wrap(p.yaw - 0.5)), 3 * M_PI / 180);
 }
@@ -181,7 +181,7 @@ TEST_F(Embodiment, GoToPoseOnTheOverheadCameraAlsoArrives) {
 TEST_F(Embodiment, BadGoalsAreRejectedWithTheUnmetPreconditionAndNothingMoves) {
   Client<xpersif::GoToPoseAction> client(ns + "relocation/go_to_pose", true);
   ros::Duration(0.3).sleep();
-  const Planar before = truth_->pose("base_link");
+  const Planar before = truth_->pose("khepera");
   struct Case {
     xpersif::GoToPoseGoal goal;
     std::string says;
@@ -196,7 +196,7 @@ TEST_F(Embodiment, BadGoalsAreRejectedWithTheUnmetPreconditionAndNothingMoves) {
     EXPECT_EQ(state, actionlib::SimpleClientGoalState::REJECTED) << c.says;
     EXPECT_NE(state.getText().find(c.says), std::string::npos) << state.getText();
   }
-  const Planar after = truth_->pose("base_link");
+  const Planar after = truth_->pose("khepera");
   EXPECT_LT(std::hypot(after.x - before.x, after.y - before.y), 1e-3);
 }
 
@@ -204,26 +204,26 @@ TEST_F(Embodiment, CancelStopsTheRobotAtOnce) {
   Client<xpersif::GoToPoseAction> client(ns + "relocation/go_to_pose", true);
   ASSERT_EQ(run(client, goTo(-0.35, -0.2, 0.0)), actionlib::SimpleClientGoalState::SUCCEEDED);
   client.sendGoal(goTo(-0.35, 0.2, M_PI / 2));
-  ASSERT_TRUE(waitFor([&] { return truth_->speed("base_link") > 0.03; }, 20.0)) << "the robot did not start";
+  ASSERT_TRUE(waitFor([&] { return truth_->speed("khepera") > 0.03; }, 20.0)) << "the robot did not start";
   client.cancelGoal();
   ASSERT_TRUE(client.waitForResult(ros::Duration(5.0)));
   EXPECT_EQ(client.getState(), actionlib::SimpleClientGoalState::PREEMPTED);
   // One control period (20 ms) plus the motors' own deceleration: at rest within a fraction of a second.
-  EXPECT_TRUE(waitFor([&] { return truth_->speed("base_link") < 0.005; }, 1.0)) << truth_->speed("base_link");
+  EXPECT_TRUE(waitFor([&] { return truth_->speed("khepera") < 0.005; }, 1.0)) << truth_->speed("khepera");
 }
 
 TEST_F(Embodiment, StopOperationEndsTheRunningCommand) {
   Client<xpersif::GoToPoseAction> client(ns + "relocation/go_to_pose", true);
   ASSERT_TRUE(client.waitForServer(ros::Duration(20.0)));
   client.sendGoal(goTo(-0.1, -0.2, 0.0));
-  ASSERT_TRUE(waitFor([&] { return truth_->speed("base_link") > 0.03; }, 20.0));
+  ASSERT_TRUE(waitFor([&] { return truth_->speed("khepera") > 0.03; }, 20.0));
   std_srvs::Trigger stop;
   ASSERT_TRUE(ros::service::call(ns + "relocation/stop", stop));
   EXPECT_TRUE(stop.response.success) << stop.response.message;
   ASSERT_TRUE(client.waitForResult(ros::Duration(5.0)));
   EXPECT_EQ(client.getState(), actionlib::SimpleClientGoalState::ABORTED);
   EXPECT_NE(client.getState().getText().find("stop operation"), std::string::npos) << client.getState().getText();
-  EXPECT_TRUE(waitFor([&] { return truth_->speed("base_link") < 0.005; }, 1.0));
+  EXPECT_TRUE(waitFor([&] { return truth_->speed("khepera") < 0.005; }, 1.0));
 }
 
 TEST_F(Embodiment, TurnToAndSetMaxVelocity) {
@@ -248,7 +248,7 @@ TEST_F(Embodiment, TurnToAndSetMaxVelocity) {
   const auto state = run(client, goal);
   ASSERT_EQ(state, actionlib::SimpleClientGoalState::SUCCEEDED) << state.getText();
   ros::Duration(0.2).sleep();
-  EXPECT_LT(std::abs(wrap(truth_->pose("base_link").yaw + 1.2)), 3 * M_PI / 180);
+  EXPECT_LT(std::abs(wrap(truth_->pose("khepera").yaw + 1.2)), 3 * M_PI / 180);
   goal.heading = NAN;
   EXPECT_EQ(run(client, goal, 20.0), actionlib::SimpleClientGoalState::REJECTED);
   limit.request.linear = 0.1;
@@ -257,7 +257,7 @@ TEST_F(Embodiment, TurnToAndSetMaxVelocity) {
 }
 
 TEST_F(Embodiment, PushMovesALightCubeInThePushedDirection) {
-  place("base_link", -0.3, 0.0, 0.0);
+  place("khepera", -0.3, 0.0, 0.0);
   place("red_cube", -0.05, 0.1, 0.0);
   Client<xpersif::PushAction> client(ns + "manipulation/push", true);
   const auto state = run(client, push("red_cube", "-x", 0.0, 0.06));  // push on the -x face: along +x
@@ -273,7 +273,7 @@ TEST_F(Embodiment, PushMovesALightCubeInThePushedDirection) {
 }
 
 TEST_F(Embodiment, TheHeavyCubeDoesNotMove) {
-  place("base_link", -0.1, 0.0, 0.0);
+  place("khepera", -0.1, 0.0, 0.0);
   const Planar before = truth_->pose("blue_cube");
   Client<xpersif::PushAction> client(ns + "manipulation/push", true);
   run(client, push("blue_cube", "-x", 0.0, 0.04));
@@ -283,8 +283,8 @@ TEST_F(Embodiment, TheHeavyCubeDoesNotMove) {
 }
 
 TEST_F(Embodiment, BadPushesAreRejectedWithReasonsAndChangeNothing) {
-  place("base_link", -0.3, 0.0, 0.0);
-  const Planar red = truth_->pose("red_cube"), robot = truth_->pose("base_link");
+  place("khepera", -0.3, 0.0, 0.0);
+  const Planar red = truth_->pose("red_cube"), robot = truth_->pose("khepera");
   Client<xpersif::PushAction> client(ns + "manipulation/push", true);
   struct Case {
     xpersif::PushGoal goal;
@@ -301,7 +301,7 @@ TEST_F(Embodiment, BadPushesAreRejectedWithReasonsAndChangeNothing) {
     EXPECT_EQ(state, actionlib::SimpleClientGoalState::REJECTED) << c.says;
     EXPECT_NE(state.getText().find(c.says), std::string::npos) << state.getText();
   }
-  const Planar red_after = truth_->pose("red_cube"), robot_after = truth_->pose("base_link");
+  const Planar red_after = truth_->pose("red_cube"), robot_after = truth_->pose("khepera");
   EXPECT_LT(std::hypot(red_after.x - red.x, red_after.y - red.y), 1e-3);
   EXPECT_LT(std::hypot(robot_after.x - robot.x, robot_after.y - robot.y), 1e-3);
 }
@@ -327,7 +327,7 @@ TEST_F(Embodiment, PerceptionObservationAndTheRobotsState) {
     EXPECT_LT(std::hypot(o.position.x - t.x, o.position.y - t.y), 0.005) << o.name;
   }
   ASSERT_TRUE(seen.response.features.robot_found);
-  const Planar robot = truth_->pose("base_link");
+  const Planar robot = truth_->pose("khepera");
   EXPECT_LT(std::hypot(seen.response.features.robot.x - robot.x, seen.response.features.robot.y - robot.y), 0.01);
 
   xpersif::GetRobotState state;
