@@ -195,6 +195,109 @@ std::array<cv::Point2d, 4> fitQuadrilateral(const std::vector<cv::Point>& contou
   return corners;
 }
 
+// A box's footprint from a forward camera. For each column of the blob, the lowest covered pixel marks the
+// box's near bottom edge (nothing of the box shows below it); back-projected onto the floor these points trace
+// one edge (a face turned to the camera) or two edges meeting at the nearest corner. With two edges the centre
+// is the corner plus half the size along both; with one, the edge's midpoint plus half the size away from the
+// camera. When the edges are too short to fit, the plain ground-contact rule is used: the lowest point plus
+// half the size along the viewing ray.
+struct Footprint {
+  bool ok = false;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Vector2d contact = Eigen::Vector2d::Zero();  // the nearest floor point of the box
+};
+
+Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position, double size,
+                          int image_rows) {
+  Footprint fp;
+  std::vector<cv::Point2f> ground;  // world x, y, left to right in the image
+  int cut = 0, columns = 0;
+  for (int c = 0; c < blob.mask.cols; ++c) {
+    int row = -1;
+    for (int j = blob.mask.rows - 1; j >= 0; --j) {
+      if (blob.mask.at<uchar>(j, c)) {
+        row = j;
+        break;
+      }
+    }
+    if (row < 0) continue;
+    ++columns;
+    const int image_row = row + blob.roi.y;
+    if (image_row >= image_rows - 1) {  // cut by the image border: its contact point is not seen
+      ++cut;
+      continue;
+    }
+    // The edge lies on average half a pixel below the lowest covered pixel's centre.
+    Eigen::Vector3d g;
+    if (cam.toPlane(c + blob.roi.x + 0.5, image_row + 1.0, 0.0, g)) {
+      ground.emplace_back(static_cast<float>(g.x()), static_cast<float>(g.y()));
+    }
+  }
+  if (ground.empty() || 2 * cut > columns) return fp;
+  const Eigen::Vector2d cam_xy = camera_position.head<2>();
+  auto vec = [](const cv::Point2f& p) { return Eigen::Vector2d(p.x, p.y); };
+  std::size_t k = 0;  // the nearest point: the corner, or somewhere on a face turned to the camera
+  for (std::size_t i = 1; i < ground.size(); ++i) {
+    if ((vec(ground[i]) - cam_xy).norm() < (vec(ground[k]) - cam_xy).norm()) k = i;
+  }
+  fp.contact = vec(ground[k]);
+  const double half = 0.5 * size;
+  auto fit = [&](std::size_t from, std::size_t to, Eigen::Vector2d& point, Eigen::Vector2d& dir) {
+    std::vector<cv::Point2f> pts(ground.begin() + from, ground.begin() + to + 1);
+    cv::Vec4f f;
+    cv::fitLine(pts, f, cv::DIST_L2, 0, 1e-4, 1e-4);
+    point = Eigen::Vector2d(f[2], f[3]);
+    dir = Eigen::Vector2d(f[0], f[1]);
+    if (dir.dot(vec(ground[to]) - vec(ground[from])) < 0) dir = -dir;  // from `from` towards `to`
+  };
+  const double left_len = (vec(ground.front()) - fp.contact).norm(), right_len = (vec(ground.back()) - fp.contact).norm();
+  const bool two = k >= 2 && k + 2 < ground.size() && left_len > 0.3 * size && right_len > 0.3 * size;
+  if (two) {
+    Eigen::Vector2d p1, d1, p2, d2;
+    fit(0, k, p1, d1);   // runs towards the corner
+    fit(k, ground.size() - 1, p2, d2);  // runs away from it
+    d1 = -d1;            // both away from the corner now
+    const double cross = d1.x() * d2.y() - d1.y() * d2.x();
+    if (std::fabs(cross) > std::sin(M_PI / 4)) {  // a real corner, not one face split in two
+      // Corner: p1 + t d1 = p2 + u d2.
+      const Eigen::Vector2d w = p2 - p1;
+      const double t = (w.x() * d2.y() - w.y() * d2.x()) / cross;
+      const Eigen::Vector2d corner = p1 + t * d1;
+      // The two edges are perpendicular: average their directions modulo pi/2, then rebuild both.
+      const double a1 = std::atan2(d1.y(), d1.x()), a2 = std::atan2(d2.y(), d2.x());
+      const double yaw = std::atan2(std::sin(4 * a1) + std::sin(4 * a2), std::cos(4 * a1) + std::cos(4 * a2)) / 4;
+      auto snap = [&](const Eigen::Vector2d& d) {
+        const double q = std::round((std::atan2(d.y(), d.x()) - yaw) / (M_PI / 2)) * (M_PI / 2) + yaw;
+        return Eigen::Vector2d(std::cos(q), std::sin(q));
+      };
+      fp.centre = corner + half * (snap(d1) + snap(d2));
+      fp.ok = true;
+      return fp;
+    }
+  }
+  if (ground.size() >= 4 && (vec(ground.front()) - vec(ground.back())).norm() > 0.5 * size) {
+    Eigen::Vector2d p, d;
+    fit(0, ground.size() - 1, p, d);
+    double tmin = std::numeric_limits<double>::max(), tmax = -tmin;
+    for (const auto& g : ground) {
+      const double t = (vec(g) - p).dot(d);
+      tmin = std::min(tmin, t);
+      tmax = std::max(tmax, t);
+    }
+    const Eigen::Vector2d mid = p + 0.5 * (tmin + tmax) * d;
+    Eigen::Vector2d n(-d.y(), d.x());
+    if (n.dot(mid - cam_xy) < 0) n = -n;
+    fp.centre = mid + half * n;
+    fp.ok = true;
+    return fp;
+  }
+  Eigen::Vector2d ray = fp.contact - cam_xy;
+  if (ray.norm() < 1e-9) return fp;
+  fp.centre = fp.contact + half * ray.normalized();
+  fp.ok = true;
+  return fp;
+}
+
 double wrapPi(double a) { return foldAngle(a, 2 * M_PI); }
 
 std::string checkPose(const Eigen::Isometry3d& pose) {
@@ -491,44 +594,19 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         det.confidence = std::min(ratio, 1 / ratio);
       }
     } else {
-      // Ground contact: the lowest row of the blob touches the floor.
-      int row = -1;
-      for (int j = blob.mask.rows - 1; j >= 0 && row < 0; --j) {
-        if (cv::countNonZero(blob.mask.row(j)) > 0) row = j;
-      }
-      const int image_row = row + blob.roi.y;
-      ok = row >= 0 && image_row < bgr.rows - 1;  // a blob cut at the bottom hides its contact point
-      Eigen::Vector3d ground;
+      // Ground contact: the blob's lower outline is the box's near bottom edges, on the floor.
+      const Footprint fp = groundFootprint(blob, cam, world_from_camera.translation(), 0.5 * (sx + sy), bgr.rows);
+      ok = fp.ok;
       if (ok) {
-        double sum = 0;
-        int n = 0;
-        for (int i2 = 0; i2 < blob.mask.cols; ++i2) {
-          if (blob.mask.at<uchar>(row, i2)) {
-            sum += i2;
-            ++n;
-          }
-        }
-        // The contact edge lies within the lowest covered row's lower half-pixel band on average.
-        const double u = sum / n + blob.roi.x + 0.5, v = image_row + 1.0;
-        ok = cam.toPlane(u, v, 0.0, ground);
-      }
-      if (ok) {
-        Eigen::Vector2d horizontal = (ground - world_from_camera.translation()).head<2>();
-        ok = horizontal.norm() > 1e-9;
-        if (ok) {
-          horizontal.normalize();
-          const double half = 0.25 * (sx + sy);
-          det.position = Eigen::Vector3d(ground.x() + half * horizontal.x(), ground.y() + half * horizontal.y(),
-                                         0.5 * sz);
-          det.yaw_known = false;
-          det.yaw = 0;
-          det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
-          const double depth = cam.depth(ground);
-          det.measured_length = blob.roi.width * depth / camera_.fx;
-          det.measured_width = blob.roi.height * depth / camera_.fy;
-          const double ratio = det.measured_width / sz;
-          det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
-        }
+        det.position = Eigen::Vector3d(fp.centre.x(), fp.centre.y(), 0.5 * sz);
+        det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
+        det.yaw_known = false;  // a few pixels of edge: too coarse to report (see groundFootprint)
+        det.yaw = 0;
+        const double depth = cam.depth(Eigen::Vector3d(fp.contact.x(), fp.contact.y(), 0));
+        det.measured_length = blob.roi.width * depth / camera_.fx;
+        det.measured_width = blob.roi.height * depth / camera_.fy;
+        const double ratio = det.measured_width / sz;
+        det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
       }
     }
     if (ok) {
