@@ -89,8 +89,10 @@ struct Blob {
   bool touches_border = false;
 };
 
-bool makeBlob(const cv::Mat& class_mask, double min_pixels, Blob& blob) {
-  blob.contour = largestContour(class_mask);
+/// The largest blob of @p class_mask, searching only @p where (which must hold every set pixel of the mask).
+bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixels, Blob& blob) {
+  if (where.empty()) return false;
+  blob.contour = largestContour(class_mask(where), where.tl());
   if (blob.contour.empty()) return false;
   blob.roi = cv::boundingRect(blob.contour);
   cv::Mat filled = cv::Mat::zeros(blob.roi.size(), CV_8U);
@@ -434,6 +436,7 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
   };
   std::vector<Known> known;
   std::set<std::string> names;
+  requireMaxSize("catalogue.objects", catalogue_.objects.size(), 250);  // class labels are 8-bit
   for (const auto& o : catalogue_.objects) {
     requireIdentifier("catalogue object name", o.name);
     if (!names.insert(o.name).second) {
@@ -503,35 +506,84 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   out.downward = isDownward(world_from_camera);
   const Pinhole cam(camera_, world_from_camera);
 
-  // Brightness (b + g + r) and chromaticity, per pixel.
-  cv::Mat bgr_f, brightness, chroma;
-  bgr.convertTo(bgr_f, CV_32FC3);
-  cv::transform(bgr_f, brightness, cv::Matx13f(1, 1, 1));
-  cv::Mat inv;
-  cv::divide(1.0, cv::max(brightness, 1.0f), inv);
-  cv::Mat inv3;
-  cv::merge(std::vector<cv::Mat>{inv, inv, inv}, inv3);
-  cv::multiply(bgr_f, inv3, chroma);
-  cv::Mat lit;
-  cv::compare(brightness, options_.min_brightness, lit, cv::CMP_GE);
+  // One pass over the image: brightness (b + g + r) and the colour class of every pixel (0 = none, k + 1 =
+  // classes_[k]), by chromaticity. The boxes do not overlap (each is at most half the distance to the next
+  // colour), so the first match is the only one.
+  cv::Mat brightness(bgr.size(), CV_16U), label(bgr.size(), CV_8U);
+  const int n = static_cast<int>(classes_.size());
+  std::vector<cv::Rect> where(classes_.size());  // each class's bounding box, grown by a pixel
+  {
+    std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
+    std::array<float, 766> inverse;  // 1 / (b + g + r)
+    inverse[0] = 0;
+    for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
+    const int min_sum = static_cast<int>(std::ceil(options_.min_brightness));
+    for (int j = 0; j < bgr.rows; ++j) {
+      const uchar* p = bgr.ptr<uchar>(j);
+      ushort* b = brightness.ptr<ushort>(j);
+      uchar* l = label.ptr<uchar>(j);
+      int last_b = -1, last_g = -1, last_r = -1, last_label = 0;
+      for (int i = 0; i < bgr.cols; ++i, p += 3) {
+        const int sum = p[0] + p[1] + p[2];
+        b[i] = static_cast<ushort>(sum);
+        // Flat shading paints large runs of identical pixels (the floor above all): reuse the last answer.
+        if (p[0] == last_b && p[1] == last_g && p[2] == last_r) {
+          l[i] = static_cast<uchar>(last_label);
+          if (last_label) {
+            const int k = last_label - 1;
+            x1[k] = std::max(x1[k], i);
+          }
+          continue;
+        }
+        last_b = p[0];
+        last_g = p[1];
+        last_r = p[2];
+        last_label = 0;
+        l[i] = 0;
+        if (sum < min_sum) continue;
+        const float inv = inverse[sum];
+        const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
+        for (int k = 0; k < n; ++k) {
+          const ColorClass& c = classes_[k];
+          if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
+              std::fabs(cr - c.chroma[2]) <= c.tolerance) {
+            l[i] = static_cast<uchar>(k + 1);
+            last_label = k + 1;
+            x0[k] = std::min(x0[k], i);
+            x1[k] = std::max(x1[k], i);
+            y0[k] = std::min(y0[k], j);
+            y1[k] = std::max(y1[k], j);
+            break;
+          }
+        }
+      }
+    }
+    // findContours needs a background pixel around a blob: grow the boxes by one, within the image.
+    for (int k = 0; k < n; ++k) {
+      if (x1[k] >= 0) {
+        where[k] = cv::Rect(cv::Point(x0[k] - 1, y0[k] - 1), cv::Point(x1[k] + 2, y1[k] + 2)) &
+                   cv::Rect(0, 0, bgr.cols, bgr.rows);
+      }
+    }
+  }
   const cv::Mat kernel = options_.morphology_kernel > 1
                              ? cv::getStructuringElement(cv::MORPH_ELLIPSE,
                                                          {options_.morphology_kernel, options_.morphology_kernel})
                              : cv::Mat();
-  auto classMask = [&](const ColorClass& c) {
-    cv::Mat mask;
-    const cv::Scalar lo(c.chroma[0] - c.tolerance, c.chroma[1] - c.tolerance, c.chroma[2] - c.tolerance);
-    const cv::Scalar hi(c.chroma[0] + c.tolerance, c.chroma[1] + c.tolerance, c.chroma[2] + c.tolerance);
-    cv::inRange(chroma, lo, hi, mask);
-    cv::bitwise_and(mask, lit, mask);
-    if (!kernel.empty()) cv::morphologyEx(mask, mask, cv::MORPH_OPEN, kernel);
+  // A full-size mask of class k, filled in only within where[k] (nothing of the class is outside it).
+  auto classMask = [&](std::size_t k) {
+    cv::Mat mask = cv::Mat::zeros(bgr.size(), CV_8U);
+    if (where[k].empty()) return mask;
+    cv::Mat part = mask(where[k]);
+    cv::compare(label(where[k]), static_cast<double>(k + 1), part, cv::CMP_EQ);
+    if (!kernel.empty()) cv::morphologyEx(part, part, cv::MORPH_OPEN, kernel);
     return mask;
   };
 
   for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
     const ObjectAppearance& obj = catalogue_.objects[i];
     Blob blob;
-    if (!makeBlob(classMask(classes_[i]), options_.min_blob_pixels, blob)) {
+    if (!makeBlob(classMask(i), where[i], options_.min_blob_pixels, blob)) {
       out.missing.push_back(obj.name);
       continue;
     }
@@ -621,12 +673,12 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   if (robot.present && out.downward) {
     const std::size_t body_class = catalogue_.objects.size();
     Blob body;
-    if (makeBlob(classMask(classes_[body_class]), options_.min_blob_pixels, body)) {
+    if (makeBlob(classMask(body_class), where[body_class], options_.min_blob_pixels, body)) {
       cv::Mat disc = brightestShade(body, brightness, options_.top_face_brightness);
       cv::Mat marker_mask;
       const bool has_marker = classes_.size() > body_class + 1;
       if (has_marker) {
-        marker_mask = classMask(classes_[body_class + 1]);
+        marker_mask = classMask(body_class + 1);
         // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
         cv::Mat grown;
         cv::dilate(marker_mask(body.roi), grown, cv::Mat());
@@ -657,7 +709,10 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         // The marker blob nearest the body: its top face's centre, on the plane of the marker's top.
         const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
         std::vector<std::vector<cv::Point>> contours;
-        cv::findContours(marker_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+        if (!where[body_class + 1].empty()) {
+          cv::findContours(marker_mask(where[body_class + 1]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
+                           where[body_class + 1].tl());
+        }
         double best = std::numeric_limits<double>::max();
         Eigen::Vector3d marker_world;
         bool seen = false;
