@@ -6,8 +6,9 @@
 //  - robot camera (the robot turned towards a random cube): position error of the cubes wholly in its view
 //    and not hidden behind another cube, by distance from the camera; detection rate; false detections (a
 //    cube reported while wholly outside the view).
-// Usage: perception_accuracy [scenes=500] [seed=1] [out_dir=(none)]
-// Writes out_dir/perception_accuracy.md (the tables printed) and out_dir/perception_accuracy.csv (every sample).
+// Usage: perception_accuracy [scenes=500] [seed=1] [out_dir=(none)] [noise_sigma=0] [morphology_kernel=default]
+// Writes out_dir/perception_accuracy.md (the tables printed) and out_dir/perception_accuracy.csv (every sample);
+// with noise_sigma > 0 (Gaussian image noise in grey levels, seeded), perception_accuracy_noise<sigma>.*.
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -43,7 +44,7 @@ struct Stats {
 
 struct Tally {
   Stats pos, yaw;
-  int expected = 0, detected = 0, false_detections = 0, gross = 0;
+  int expected = 0, detected = 0, false_detections = 0, gross = 0, absent = 0;  // absent: out of view
 };
 
 double angleError(double a, double b, double period) { return std::fabs(foldAngle(a - b, period)); }
@@ -88,12 +89,24 @@ int main(int argc, char** argv) {
   const int scenes = argc > 1 ? std::atoi(argv[1]) : 500;
   const unsigned seed = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 1u;
   const std::string out_dir = argc > 3 ? argv[3] : "";
+  const double noise = argc > 4 ? std::atof(argv[4]) : 0.0;
+  cv::theRNG().state = seed;
+  auto addNoise = [&](cv::Mat& image) {
+    if (noise <= 0) return;
+    cv::Mat n(image.size(), CV_16SC3), wide;
+    cv::randn(n, 0, noise);
+    image.convertTo(wide, CV_16SC3);
+    wide += n;
+    wide.convertTo(image, CV_8UC3);  // saturating
+  };
   const DefaultWorld w(std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml");
   const Renderer renderer(w.scene);
   const CameraModel& overhead = *w.scene.findCamera("overhead");
   const CameraModel& robot_camera = *w.scene.findCamera("robot_camera");
   const PerceptionCatalogue catalogue = PerceptionCatalogue::fromScene(w.scene);
-  const FeatureExtractor top(catalogue, overhead), front(catalogue, robot_camera);
+  PerceptionOptions options;
+  if (argc > 5) options.morphology_kernel = std::atoi(argv[5]);
+  const FeatureExtractor top(catalogue, overhead, options), front(catalogue, robot_camera, options);
 
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -101,14 +114,15 @@ int main(int argc, char** argv) {
   Tally robot_tally;
   Stats robot_pos, robot_yaw;
   std::map<std::string, Tally> ahead;  // robot camera, by distance band
-  const char* bands[] = {"0.08-0.20 m", "0.20-0.40 m", "0.40-0.90 m"};
+  const char* bands[] = {"< 0.20 m", "0.20-0.40 m", ">= 0.40 m"};
   std::ostringstream csv;
   csv << "scene,camera,object,truth_x,truth_y,truth_yaw,found,x,y,yaw,position_error_m,yaw_error_rad,distance_m\n";
 
   for (int s = 0; s < scenes; ++s) {
     // Overhead: one cube in ten is put out of view, to count false detections.
     const FrameTransforms current = randomScene(w, rng, 0.1);
-    const Frame f = render(renderer, w.scene, current, overhead);
+    Frame f = render(renderer, w.scene, current, overhead);
+    addNoise(f.image);
     const Detections d = top.extract(f.image, f.world_from_camera);
     for (const std::string& name : cubeNames()) {
       Tally& t = over[name];
@@ -131,6 +145,7 @@ int main(int argc, char** argv) {
         csv << ",,,,,";
       }
       csv << ",\n";
+      if (!in_view) ++t.absent;
       if (in_view) {
         ++t.expected;
         if (it != d.objects.end()) ++t.detected;
@@ -151,7 +166,8 @@ int main(int argc, char** argv) {
     const Eigen::Vector3d to = facing.at(target).translation() - base.translation();
     base = planar(base.translation().x(), base.translation().y(), base.translation().z(),
                   std::atan2(to.y(), to.x()) + 0.7 * (unit(rng) - 0.5));
-    const Frame g = render(renderer, w.scene, facing, robot_camera);
+    Frame g = render(renderer, w.scene, facing, robot_camera);
+    addNoise(g.image);
     const Detections e = front.extract(g.image, g.world_from_camera);
     std::map<std::string, Visibility> vis;
     for (const std::string& name : cubeNames()) vis[name] = visibility(robot_camera, g.world_from_camera, facing.at(name), 0.04);
@@ -169,6 +185,7 @@ int main(int argc, char** argv) {
       const double distance = (truth - g.world_from_camera.translation()).head<2>().norm();
       const int band = distance < 0.2 ? 0 : (distance < 0.4 ? 1 : 2);
       Tally& t = ahead[bands[band]];
+      if (v.none) ++t.absent;
       if (v.none && it != e.objects.end()) ++t.false_detections;
       if (!v.whole || hidden) continue;
       ++t.expected;
@@ -188,13 +205,16 @@ int main(int argc, char** argv) {
   }
 
   std::ostringstream md;
-  md << "perception_accuracy: " << scenes << " random scenes of the default world, seed " << seed << "\n\n";
+  md << "perception_accuracy: " << scenes << " random scenes of the default world, seed " << seed
+     << ", image noise sigma " << noise << ", morphology kernel " << options.morphology_kernel << "\n\n";
   md << "Overhead camera (600 x 416, fx = 650, 1.2 m up); errors against the rendered poses; yaw modulo pi/2.\n\n";
+  md << "False detections: reported while out of view (of how many out-of-view samples), or > 2 cm off.\n\n";
   md << "| cube | detected | false det. | position error mm: mean | p95 | max | yaw error deg: mean | p95 | max |\n";
   md << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const std::string& name : cubeNames()) {
     const Tally& t = over[name];
-    md << "| " << name << " | " << t.detected << "/" << t.expected << " | " << t.false_detections << " | "
+    md << "| " << name << " | " << t.detected << "/" << t.expected << " | " << t.false_detections << " (of " << t.absent
+       << ") | "
        << t.pos.row(1000, 2) << " | " << t.yaw.row(180 / M_PI, 2) << " |\n";
   }
   md << "| robot | " << robot_tally.detected << "/" << robot_tally.expected << " | – | " << robot_pos.row(1000, 2)
@@ -206,13 +226,16 @@ int main(int argc, char** argv) {
   md << "| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const char* band : bands) {
     const Tally& t = ahead[band];
-    md << "| " << band << " | " << t.detected << "/" << t.expected << " | " << t.false_detections << " | " << t.gross
+    md << "| " << band << " | " << t.detected << "/" << t.expected << " | " << t.false_detections << " (of " << t.absent
+       << ") | " << t.gross
        << " | " << t.pos.row(1000, 1) << " |\n";
   }
   std::fputs(md.str().c_str(), stdout);
   if (!out_dir.empty()) {
-    std::ofstream(out_dir + "/perception_accuracy.md") << md.str();
-    std::ofstream(out_dir + "/perception_accuracy.csv") << csv.str();
+    const std::string base = out_dir + "/perception_accuracy" +
+                             (noise > 0 ? "_noise" + std::to_string(static_cast<int>(noise)) : std::string());
+    std::ofstream(base + ".md") << md.str();
+    std::ofstream(base + ".csv") << csv.str();
   }
   return 0;
 }

@@ -108,13 +108,30 @@ bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixel
   return true;
 }
 
-// The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as
-// the brightest one. Returns a roi-sized mask.
+// The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as the
+// blob's bright level, its 90th-percentile brightness. A percentile, not the maximum: with sensor noise the
+// maximum is an outlier, and a dark top face (the robot's body) would lose pixels to the threshold and break up.
+// Returns a roi-sized mask.
 cv::Mat brightestShade(const Blob& blob, const cv::Mat& brightness, double fraction) {
-  double max_value = 0;
-  cv::minMaxLoc(brightness(blob.roi), nullptr, &max_value, nullptr, nullptr, blob.mask);
+  std::array<int, 766> histogram{};
+  int total = 0;
+  for (int j = 0; j < blob.mask.rows; ++j) {
+    const uchar* m = blob.mask.ptr<uchar>(j);
+    const ushort* b = brightness.ptr<ushort>(j + blob.roi.y) + blob.roi.x;
+    for (int i = 0; i < blob.mask.cols; ++i) {
+      if (m[i]) {
+        ++histogram[b[i]];
+        ++total;
+      }
+    }
+  }
+  int level = 0;
+  for (int seen = 0, rank = (9 * total + 9) / 10; level < 765; ++level) {
+    seen += histogram[level];
+    if (seen >= rank) break;
+  }
   cv::Mat top;
-  cv::compare(brightness(blob.roi), fraction * max_value, top, cv::CMP_GE);
+  cv::compare(brightness(blob.roi), fraction * level, top, cv::CMP_GE);
   cv::bitwise_and(top, blob.mask, top);
   return top;
 }
@@ -422,7 +439,7 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
   requireInRange("options.min_brightness", options_.min_brightness, 0, 765);
   requireInRange("options.max_chroma_tolerance", options_.max_chroma_tolerance, 0.005, 0.5);
   requireInRange("options.min_blob_pixels", options_.min_blob_pixels, 1, 1e9);
-  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1);
+  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1.5);
   requireInRange("options.min_top_fraction", options_.min_top_fraction, 0, 1);
   if (options_.morphology_kernel < 1 || options_.morphology_kernel % 2 == 0 || options_.morphology_kernel > 15) {
     throw ValidationError("options.morphology_kernel is " + std::to_string(options_.morphology_kernel) +
@@ -518,6 +535,13 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
     inverse[0] = 0;
     for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
     const int min_sum = static_cast<int>(std::ceil(options_.min_brightness));
+    // Near-grey pixels (floor, walls, background) are in no class: a pixel whose chromaticity is closer to grey
+    // (1/3, 1/3, 1/3) than every class box is skipped without the division. Distance to grey, times 3 (b+g+r):
+    // max |3c - sum| / sum.
+    float grey_margin = 3.0f;
+    const cv::Vec3f grey(1.0f / 3, 1.0f / 3, 1.0f / 3);
+    for (const ColorClass& c : classes_) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
+    grey_margin = std::max(0.0f, grey_margin * 0.999f);
     for (int j = 0; j < bgr.rows; ++j) {
       const uchar* p = bgr.ptr<uchar>(j);
       ushort* b = brightness.ptr<ushort>(j);
@@ -541,6 +565,8 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         last_label = 0;
         l[i] = 0;
         if (sum < min_sum) continue;
+        const int off = std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
+        if (off < grey_margin * sum) continue;
         const float inv = inverse[sum];
         const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
         for (int k = 0; k < n; ++k) {
@@ -706,14 +732,15 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         }
       }
       if (out.robot.found && has_marker) {
-        // The marker blob nearest the body: its top face's centre, on the plane of the marker's top.
+        // The largest marker blob within reach of the body (stray pixels of a nearby yellow thing are smaller):
+        // its top face's centre, on the plane of the marker's top.
         const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
         std::vector<std::vector<cv::Point>> contours;
         if (!where[body_class + 1].empty()) {
           cv::findContours(marker_mask(where[body_class + 1]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
                            where[body_class + 1].tl());
         }
-        double best = std::numeric_limits<double>::max();
+        int best = 0;
         Eigen::Vector3d marker_world;
         bool seen = false;
         for (const auto& c : contours) {
@@ -724,19 +751,18 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
           cv::drawContours(filled, std::vector<std::vector<cv::Point>>{c}, 0, cv::Scalar(255), cv::FILLED, cv::LINE_8,
                            cv::noArray(), 0, -mb.roi.tl());
           cv::bitwise_and(filled, marker_mask(mb.roi), mb.mask);
-          if (cv::countNonZero(mb.mask) == 0) continue;
+          const int pixels = cv::countNonZero(mb.mask);
+          if (pixels <= best) continue;
           const cv::Mat top = brightestShade(mb, brightness, options_.top_face_brightness);
           const cv::Moments m = cv::moments(top, true);
           if (m.m00 <= 0) continue;
           const cv::Point2d p = toRenderer({m.m10 / m.m00 + mb.roi.x, m.m01 / m.m00 + mb.roi.y});
           Eigen::Vector3d w;
           if (!cam.toPlane(p.x, p.y, robot.marker_top, w)) continue;
-          const double d = std::hypot(w.x() - out.robot.x, w.y() - out.robot.y);
-          if (d < reach && d < best) {
-            best = d;
-            marker_world = w;
-            seen = true;
-          }
+          if (std::hypot(w.x() - out.robot.x, w.y() - out.robot.y) >= reach) continue;
+          best = pixels;
+          marker_world = w;
+          seen = true;
         }
         if (seen && robot.marker_offset.head<2>().norm() > 1e-6) {
           const double seen_angle = std::atan2(marker_world.y() - out.robot.y, marker_world.x() - out.robot.x);

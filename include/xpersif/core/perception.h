@@ -101,8 +101,10 @@ struct PerceptionOptions {
   double max_chroma_tolerance = 0.06;
   /// Blobs smaller than this many pixels are ignored (noise, slivers).
   double min_blob_pixels = 6;
-  /// A top face is the part of a blob at least this fraction as bright as its brightest pixel.
-  double top_face_brightness = 0.9;
+  /// A top face is the part of a blob at least this fraction as bright as the blob's 90th-percentile
+  /// brightness (robust to noise). XPERSim's light makes a top face 0.95 of its base colour and sides at most
+  /// 0.69, so the default sits between them with room for noise.
+  double top_face_brightness = 0.83;
   /// Downward camera: a detection whose top face covers less than this fraction of the expected area is
   /// treated as occluded and reported missing rather than guessed.
   double min_top_fraction = 0.5;
