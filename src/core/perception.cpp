@@ -89,8 +89,10 @@ struct Blob {
   bool touches_border = false;
 };
 
-bool makeBlob(const cv::Mat& class_mask, double min_pixels, Blob& blob) {
-  blob.contour = largestContour(class_mask);
+/// The largest blob of @p class_mask, searching only @p where (which must hold every set pixel of the mask).
+bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixels, Blob& blob) {
+  if (where.empty()) return false;
+  blob.contour = largestContour(class_mask(where), where.tl());
   if (blob.contour.empty()) return false;
   blob.roi = cv::boundingRect(blob.contour);
   cv::Mat filled = cv::Mat::zeros(blob.roi.size(), CV_8U);
@@ -106,13 +108,30 @@ bool makeBlob(const cv::Mat& class_mask, double min_pixels, Blob& blob) {
   return true;
 }
 
-// The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as
-// the brightest one. Returns a roi-sized mask.
+// The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as the
+// blob's bright level, its 90th-percentile brightness. A percentile, not the maximum: with sensor noise the
+// maximum is an outlier, and a dark top face (the robot's body) would lose pixels to the threshold and break up.
+// Returns a roi-sized mask.
 cv::Mat brightestShade(const Blob& blob, const cv::Mat& brightness, double fraction) {
-  double max_value = 0;
-  cv::minMaxLoc(brightness(blob.roi), nullptr, &max_value, nullptr, nullptr, blob.mask);
+  std::array<int, 766> histogram{};
+  int total = 0;
+  for (int j = 0; j < blob.mask.rows; ++j) {
+    const uchar* m = blob.mask.ptr<uchar>(j);
+    const ushort* b = brightness.ptr<ushort>(j + blob.roi.y) + blob.roi.x;
+    for (int i = 0; i < blob.mask.cols; ++i) {
+      if (m[i]) {
+        ++histogram[b[i]];
+        ++total;
+      }
+    }
+  }
+  int level = 0;
+  for (int seen = 0, rank = (9 * total + 9) / 10; level < 765; ++level) {
+    seen += histogram[level];
+    if (seen >= rank) break;
+  }
   cv::Mat top;
-  cv::compare(brightness(blob.roi), fraction * max_value, top, cv::CMP_GE);
+  cv::compare(brightness(blob.roi), fraction * level, top, cv::CMP_GE);
   cv::bitwise_and(top, blob.mask, top);
   return top;
 }
@@ -193,6 +212,109 @@ std::array<cv::Point2d, 4> fitQuadrilateral(const std::vector<cv::Point>& contou
     if (!intersect(lines[(k + 3) % 4], lines[k], corners[k])) return rect_corners;
   }
   return corners;
+}
+
+// A box's footprint from a forward camera. For each column of the blob, the lowest covered pixel marks the
+// box's near bottom edge (nothing of the box shows below it); back-projected onto the floor these points trace
+// one edge (a face turned to the camera) or two edges meeting at the nearest corner. With two edges the centre
+// is the corner plus half the size along both; with one, the edge's midpoint plus half the size away from the
+// camera. When the edges are too short to fit, the plain ground-contact rule is used: the lowest point plus
+// half the size along the viewing ray.
+struct Footprint {
+  bool ok = false;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Vector2d contact = Eigen::Vector2d::Zero();  // the nearest floor point of the box
+};
+
+Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position, double size,
+                          int image_rows) {
+  Footprint fp;
+  std::vector<cv::Point2f> ground;  // world x, y, left to right in the image
+  int cut = 0, columns = 0;
+  for (int c = 0; c < blob.mask.cols; ++c) {
+    int row = -1;
+    for (int j = blob.mask.rows - 1; j >= 0; --j) {
+      if (blob.mask.at<uchar>(j, c)) {
+        row = j;
+        break;
+      }
+    }
+    if (row < 0) continue;
+    ++columns;
+    const int image_row = row + blob.roi.y;
+    if (image_row >= image_rows - 1) {  // cut by the image border: its contact point is not seen
+      ++cut;
+      continue;
+    }
+    // The edge lies on average half a pixel below the lowest covered pixel's centre.
+    Eigen::Vector3d g;
+    if (cam.toPlane(c + blob.roi.x + 0.5, image_row + 1.0, 0.0, g)) {
+      ground.emplace_back(static_cast<float>(g.x()), static_cast<float>(g.y()));
+    }
+  }
+  if (ground.empty() || 2 * cut > columns) return fp;
+  const Eigen::Vector2d cam_xy = camera_position.head<2>();
+  auto vec = [](const cv::Point2f& p) { return Eigen::Vector2d(p.x, p.y); };
+  std::size_t k = 0;  // the nearest point: the corner, or somewhere on a face turned to the camera
+  for (std::size_t i = 1; i < ground.size(); ++i) {
+    if ((vec(ground[i]) - cam_xy).norm() < (vec(ground[k]) - cam_xy).norm()) k = i;
+  }
+  fp.contact = vec(ground[k]);
+  const double half = 0.5 * size;
+  auto fit = [&](std::size_t from, std::size_t to, Eigen::Vector2d& point, Eigen::Vector2d& dir) {
+    std::vector<cv::Point2f> pts(ground.begin() + from, ground.begin() + to + 1);
+    cv::Vec4f f;
+    cv::fitLine(pts, f, cv::DIST_L2, 0, 1e-4, 1e-4);
+    point = Eigen::Vector2d(f[2], f[3]);
+    dir = Eigen::Vector2d(f[0], f[1]);
+    if (dir.dot(vec(ground[to]) - vec(ground[from])) < 0) dir = -dir;  // from `from` towards `to`
+  };
+  const double left_len = (vec(ground.front()) - fp.contact).norm(), right_len = (vec(ground.back()) - fp.contact).norm();
+  const bool two = k >= 2 && k + 2 < ground.size() && left_len > 0.3 * size && right_len > 0.3 * size;
+  if (two) {
+    Eigen::Vector2d p1, d1, p2, d2;
+    fit(0, k, p1, d1);   // runs towards the corner
+    fit(k, ground.size() - 1, p2, d2);  // runs away from it
+    d1 = -d1;            // both away from the corner now
+    const double cross = d1.x() * d2.y() - d1.y() * d2.x();
+    if (std::fabs(cross) > std::sin(M_PI / 4)) {  // a real corner, not one face split in two
+      // Corner: p1 + t d1 = p2 + u d2.
+      const Eigen::Vector2d w = p2 - p1;
+      const double t = (w.x() * d2.y() - w.y() * d2.x()) / cross;
+      const Eigen::Vector2d corner = p1 + t * d1;
+      // The two edges are perpendicular: average their directions modulo pi/2, then rebuild both.
+      const double a1 = std::atan2(d1.y(), d1.x()), a2 = std::atan2(d2.y(), d2.x());
+      const double yaw = std::atan2(std::sin(4 * a1) + std::sin(4 * a2), std::cos(4 * a1) + std::cos(4 * a2)) / 4;
+      auto snap = [&](const Eigen::Vector2d& d) {
+        const double q = std::round((std::atan2(d.y(), d.x()) - yaw) / (M_PI / 2)) * (M_PI / 2) + yaw;
+        return Eigen::Vector2d(std::cos(q), std::sin(q));
+      };
+      fp.centre = corner + half * (snap(d1) + snap(d2));
+      fp.ok = true;
+      return fp;
+    }
+  }
+  if (ground.size() >= 4 && (vec(ground.front()) - vec(ground.back())).norm() > 0.5 * size) {
+    Eigen::Vector2d p, d;
+    fit(0, ground.size() - 1, p, d);
+    double tmin = std::numeric_limits<double>::max(), tmax = -tmin;
+    for (const auto& g : ground) {
+      const double t = (vec(g) - p).dot(d);
+      tmin = std::min(tmin, t);
+      tmax = std::max(tmax, t);
+    }
+    const Eigen::Vector2d mid = p + 0.5 * (tmin + tmax) * d;
+    Eigen::Vector2d n(-d.y(), d.x());
+    if (n.dot(mid - cam_xy) < 0) n = -n;
+    fp.centre = mid + half * n;
+    fp.ok = true;
+    return fp;
+  }
+  Eigen::Vector2d ray = fp.contact - cam_xy;
+  if (ray.norm() < 1e-9) return fp;
+  fp.centre = fp.contact + half * ray.normalized();
+  fp.ok = true;
+  return fp;
 }
 
 double wrapPi(double a) { return foldAngle(a, 2 * M_PI); }
@@ -317,7 +439,7 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
   requireInRange("options.min_brightness", options_.min_brightness, 0, 765);
   requireInRange("options.max_chroma_tolerance", options_.max_chroma_tolerance, 0.005, 0.5);
   requireInRange("options.min_blob_pixels", options_.min_blob_pixels, 1, 1e9);
-  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1);
+  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1.5);
   requireInRange("options.min_top_fraction", options_.min_top_fraction, 0, 1);
   if (options_.morphology_kernel < 1 || options_.morphology_kernel % 2 == 0 || options_.morphology_kernel > 15) {
     throw ValidationError("options.morphology_kernel is " + std::to_string(options_.morphology_kernel) +
@@ -331,6 +453,7 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
   };
   std::vector<Known> known;
   std::set<std::string> names;
+  requireMaxSize("catalogue.objects", catalogue_.objects.size(), 250);  // class labels are 8-bit
   for (const auto& o : catalogue_.objects) {
     requireIdentifier("catalogue object name", o.name);
     if (!names.insert(o.name).second) {
@@ -400,35 +523,93 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   out.downward = isDownward(world_from_camera);
   const Pinhole cam(camera_, world_from_camera);
 
-  // Brightness (b + g + r) and chromaticity, per pixel.
-  cv::Mat bgr_f, brightness, chroma;
-  bgr.convertTo(bgr_f, CV_32FC3);
-  cv::transform(bgr_f, brightness, cv::Matx13f(1, 1, 1));
-  cv::Mat inv;
-  cv::divide(1.0, cv::max(brightness, 1.0f), inv);
-  cv::Mat inv3;
-  cv::merge(std::vector<cv::Mat>{inv, inv, inv}, inv3);
-  cv::multiply(bgr_f, inv3, chroma);
-  cv::Mat lit;
-  cv::compare(brightness, options_.min_brightness, lit, cv::CMP_GE);
+  // One pass over the image: brightness (b + g + r) and the colour class of every pixel (0 = none, k + 1 =
+  // classes_[k]), by chromaticity. The boxes do not overlap (each is at most half the distance to the next
+  // colour), so the first match is the only one.
+  cv::Mat brightness(bgr.size(), CV_16U), label(bgr.size(), CV_8U);
+  const int n = static_cast<int>(classes_.size());
+  std::vector<cv::Rect> where(classes_.size());  // each class's bounding box, grown by a pixel
+  {
+    std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
+    std::array<float, 766> inverse;  // 1 / (b + g + r)
+    inverse[0] = 0;
+    for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
+    const int min_sum = static_cast<int>(std::ceil(options_.min_brightness));
+    // Near-grey pixels (floor, walls, background) are in no class: a pixel whose chromaticity is closer to grey
+    // (1/3, 1/3, 1/3) than every class box is skipped without the division. Distance to grey, times 3 (b+g+r):
+    // max |3c - sum| / sum.
+    float grey_margin = 3.0f;
+    const cv::Vec3f grey(1.0f / 3, 1.0f / 3, 1.0f / 3);
+    for (const ColorClass& c : classes_) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
+    grey_margin = std::max(0.0f, grey_margin * 0.999f);
+    for (int j = 0; j < bgr.rows; ++j) {
+      const uchar* p = bgr.ptr<uchar>(j);
+      ushort* b = brightness.ptr<ushort>(j);
+      uchar* l = label.ptr<uchar>(j);
+      int last_b = -1, last_g = -1, last_r = -1, last_label = 0;
+      for (int i = 0; i < bgr.cols; ++i, p += 3) {
+        const int sum = p[0] + p[1] + p[2];
+        b[i] = static_cast<ushort>(sum);
+        // Flat shading paints large runs of identical pixels (the floor above all): reuse the last answer.
+        if (p[0] == last_b && p[1] == last_g && p[2] == last_r) {
+          l[i] = static_cast<uchar>(last_label);
+          if (last_label) {
+            const int k = last_label - 1;
+            x1[k] = std::max(x1[k], i);
+          }
+          continue;
+        }
+        last_b = p[0];
+        last_g = p[1];
+        last_r = p[2];
+        last_label = 0;
+        l[i] = 0;
+        if (sum < min_sum) continue;
+        const int off = std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
+        if (off < grey_margin * sum) continue;
+        const float inv = inverse[sum];
+        const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
+        for (int k = 0; k < n; ++k) {
+          const ColorClass& c = classes_[k];
+          if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
+              std::fabs(cr - c.chroma[2]) <= c.tolerance) {
+            l[i] = static_cast<uchar>(k + 1);
+            last_label = k + 1;
+            x0[k] = std::min(x0[k], i);
+            x1[k] = std::max(x1[k], i);
+            y0[k] = std::min(y0[k], j);
+            y1[k] = std::max(y1[k], j);
+            break;
+          }
+        }
+      }
+    }
+    // findContours needs a background pixel around a blob: grow the boxes by one, within the image.
+    for (int k = 0; k < n; ++k) {
+      if (x1[k] >= 0) {
+        where[k] = cv::Rect(cv::Point(x0[k] - 1, y0[k] - 1), cv::Point(x1[k] + 2, y1[k] + 2)) &
+                   cv::Rect(0, 0, bgr.cols, bgr.rows);
+      }
+    }
+  }
   const cv::Mat kernel = options_.morphology_kernel > 1
                              ? cv::getStructuringElement(cv::MORPH_ELLIPSE,
                                                          {options_.morphology_kernel, options_.morphology_kernel})
                              : cv::Mat();
-  auto classMask = [&](const ColorClass& c) {
-    cv::Mat mask;
-    const cv::Scalar lo(c.chroma[0] - c.tolerance, c.chroma[1] - c.tolerance, c.chroma[2] - c.tolerance);
-    const cv::Scalar hi(c.chroma[0] + c.tolerance, c.chroma[1] + c.tolerance, c.chroma[2] + c.tolerance);
-    cv::inRange(chroma, lo, hi, mask);
-    cv::bitwise_and(mask, lit, mask);
-    if (!kernel.empty()) cv::morphologyEx(mask, mask, cv::MORPH_OPEN, kernel);
+  // A full-size mask of class k, filled in only within where[k] (nothing of the class is outside it).
+  auto classMask = [&](std::size_t k) {
+    cv::Mat mask = cv::Mat::zeros(bgr.size(), CV_8U);
+    if (where[k].empty()) return mask;
+    cv::Mat part = mask(where[k]);
+    cv::compare(label(where[k]), static_cast<double>(k + 1), part, cv::CMP_EQ);
+    if (!kernel.empty()) cv::morphologyEx(part, part, cv::MORPH_OPEN, kernel);
     return mask;
   };
 
   for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
     const ObjectAppearance& obj = catalogue_.objects[i];
     Blob blob;
-    if (!makeBlob(classMask(classes_[i]), options_.min_blob_pixels, blob)) {
+    if (!makeBlob(classMask(i), where[i], options_.min_blob_pixels, blob)) {
       out.missing.push_back(obj.name);
       continue;
     }
@@ -491,44 +672,19 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         det.confidence = std::min(ratio, 1 / ratio);
       }
     } else {
-      // Ground contact: the lowest row of the blob touches the floor.
-      int row = -1;
-      for (int j = blob.mask.rows - 1; j >= 0 && row < 0; --j) {
-        if (cv::countNonZero(blob.mask.row(j)) > 0) row = j;
-      }
-      const int image_row = row + blob.roi.y;
-      ok = row >= 0 && image_row < bgr.rows - 1;  // a blob cut at the bottom hides its contact point
-      Eigen::Vector3d ground;
+      // Ground contact: the blob's lower outline is the box's near bottom edges, on the floor.
+      const Footprint fp = groundFootprint(blob, cam, world_from_camera.translation(), 0.5 * (sx + sy), bgr.rows);
+      ok = fp.ok;
       if (ok) {
-        double sum = 0;
-        int n = 0;
-        for (int i2 = 0; i2 < blob.mask.cols; ++i2) {
-          if (blob.mask.at<uchar>(row, i2)) {
-            sum += i2;
-            ++n;
-          }
-        }
-        // The contact edge lies within the lowest covered row's lower half-pixel band on average.
-        const double u = sum / n + blob.roi.x + 0.5, v = image_row + 1.0;
-        ok = cam.toPlane(u, v, 0.0, ground);
-      }
-      if (ok) {
-        Eigen::Vector2d horizontal = (ground - world_from_camera.translation()).head<2>();
-        ok = horizontal.norm() > 1e-9;
-        if (ok) {
-          horizontal.normalize();
-          const double half = 0.25 * (sx + sy);
-          det.position = Eigen::Vector3d(ground.x() + half * horizontal.x(), ground.y() + half * horizontal.y(),
-                                         0.5 * sz);
-          det.yaw_known = false;
-          det.yaw = 0;
-          det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
-          const double depth = cam.depth(ground);
-          det.measured_length = blob.roi.width * depth / camera_.fx;
-          det.measured_width = blob.roi.height * depth / camera_.fy;
-          const double ratio = det.measured_width / sz;
-          det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
-        }
+        det.position = Eigen::Vector3d(fp.centre.x(), fp.centre.y(), 0.5 * sz);
+        det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
+        det.yaw_known = false;  // a few pixels of edge: too coarse to report (see groundFootprint)
+        det.yaw = 0;
+        const double depth = cam.depth(Eigen::Vector3d(fp.contact.x(), fp.contact.y(), 0));
+        det.measured_length = blob.roi.width * depth / camera_.fx;
+        det.measured_width = blob.roi.height * depth / camera_.fy;
+        const double ratio = det.measured_width / sz;
+        det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
       }
     }
     if (ok) {
@@ -543,12 +699,12 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   if (robot.present && out.downward) {
     const std::size_t body_class = catalogue_.objects.size();
     Blob body;
-    if (makeBlob(classMask(classes_[body_class]), options_.min_blob_pixels, body)) {
+    if (makeBlob(classMask(body_class), where[body_class], options_.min_blob_pixels, body)) {
       cv::Mat disc = brightestShade(body, brightness, options_.top_face_brightness);
       cv::Mat marker_mask;
       const bool has_marker = classes_.size() > body_class + 1;
       if (has_marker) {
-        marker_mask = classMask(classes_[body_class + 1]);
+        marker_mask = classMask(body_class + 1);
         // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
         cv::Mat grown;
         cv::dilate(marker_mask(body.roi), grown, cv::Mat());
@@ -576,11 +732,15 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         }
       }
       if (out.robot.found && has_marker) {
-        // The marker blob nearest the body: its top face's centre, on the plane of the marker's top.
+        // The largest marker blob within reach of the body (stray pixels of a nearby yellow thing are smaller):
+        // its top face's centre, on the plane of the marker's top.
         const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
         std::vector<std::vector<cv::Point>> contours;
-        cv::findContours(marker_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-        double best = std::numeric_limits<double>::max();
+        if (!where[body_class + 1].empty()) {
+          cv::findContours(marker_mask(where[body_class + 1]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
+                           where[body_class + 1].tl());
+        }
+        int best = 0;
         Eigen::Vector3d marker_world;
         bool seen = false;
         for (const auto& c : contours) {
@@ -591,19 +751,18 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
           cv::drawContours(filled, std::vector<std::vector<cv::Point>>{c}, 0, cv::Scalar(255), cv::FILLED, cv::LINE_8,
                            cv::noArray(), 0, -mb.roi.tl());
           cv::bitwise_and(filled, marker_mask(mb.roi), mb.mask);
-          if (cv::countNonZero(mb.mask) == 0) continue;
+          const int pixels = cv::countNonZero(mb.mask);
+          if (pixels <= best) continue;
           const cv::Mat top = brightestShade(mb, brightness, options_.top_face_brightness);
           const cv::Moments m = cv::moments(top, true);
           if (m.m00 <= 0) continue;
           const cv::Point2d p = toRenderer({m.m10 / m.m00 + mb.roi.x, m.m01 / m.m00 + mb.roi.y});
           Eigen::Vector3d w;
           if (!cam.toPlane(p.x, p.y, robot.marker_top, w)) continue;
-          const double d = std::hypot(w.x() - out.robot.x, w.y() - out.robot.y);
-          if (d < reach && d < best) {
-            best = d;
-            marker_world = w;
-            seen = true;
-          }
+          if (std::hypot(w.x() - out.robot.x, w.y() - out.robot.y) >= reach) continue;
+          best = pixels;
+          marker_world = w;
+          seen = true;
         }
         if (seen && robot.marker_offset.head<2>().norm() > 1e-6) {
           const double seen_angle = std::atan2(marker_world.y() - out.robot.y, marker_world.x() - out.robot.x);

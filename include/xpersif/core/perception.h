@@ -20,9 +20,13 @@
  *    back-projected onto the plane z = box height, and the centre is the top centre minus half the height.
  *    Yaw is reported modulo the box's symmetry (pi/2 for a square top), folded into (-period/2, period/2].
  *    The robot: centre of its body's top disc, heading from the marker (the camera box) relative to it.
- *  - Forward camera (e.g. the robot camera): ground contact. The lowest image point of an object's blob lies on
- *    the floor (z = 0); it is back-projected and moved half the box size further along the viewing ray's
- *    horizontal direction. Orientation is unknown there (yaw_known = false); the robot is not looked for.
+ *  - Forward camera (e.g. the robot camera): ground contact. Nothing of a box shows below its near bottom
+ *    edges, so the lowest blob pixel of each image column, back-projected onto the floor (z = 0), lies on them:
+ *    these points trace one edge (a face turned to the camera: centre = edge midpoint + half the size away from
+ *    the camera) or two meeting at the nearest corner (centre = corner + half the size along both edges). Too
+ *    short an outline falls back to the lowest point plus half the size along the viewing ray. A blob cut by the
+ *    bottom image border hides its contact and is reported missing. Orientation is reported unknown there
+ *    (yaw_known = false: a few pixels of edge are too coarse); the robot is not looked for.
  *
  * Image conventions are the renderer's: continuous image point (u, v) = (fx x/z + cx, fy y/z + cy), and pixel
  * (column i, row j) has its centre at (i + 0.5, j + 0.5); OpenCV's cv:: geometry puts pixel centres at
@@ -97,8 +101,10 @@ struct PerceptionOptions {
   double max_chroma_tolerance = 0.06;
   /// Blobs smaller than this many pixels are ignored (noise, slivers).
   double min_blob_pixels = 6;
-  /// A top face is the part of a blob at least this fraction as bright as its brightest pixel.
-  double top_face_brightness = 0.9;
+  /// A top face is the part of a blob at least this fraction as bright as the blob's 90th-percentile
+  /// brightness (robust to noise). XPERSim's light makes a top face 0.95 of its base colour and sides at most
+  /// 0.69, so the default sits between them with room for noise.
+  double top_face_brightness = 0.83;
   /// Downward camera: a detection whose top face covers less than this fraction of the expected area is
   /// treated as occluded and reported missing rather than guessed.
   double min_top_fraction = 0.5;
@@ -121,8 +127,8 @@ struct ObjectDetection {
   /// The top face's corners back-projected to z = box height, in order around the face (downward camera;
   /// else empty). Their edges give the measured size.
   std::vector<Eigen::Vector3d> top_corners;
-  /// Width and height of the visible box in m (forward camera: blob extent at the ground-contact depth;
-  /// downward camera: mean edge lengths of the top face, long side first).
+  /// Downward camera: the top face's mean edge lengths in m, long side first. Forward camera: the blob's
+  /// horizontal (length) and vertical (width, ~ the box's height) extent scaled to the contact point's depth.
   double measured_length = 0, measured_width = 0;
 };
 
