@@ -29,10 +29,11 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       {"valid_push(?side, ?offset, ?distance)",
        "the side must be -x, +x, -y or +y, the offset within the face, the distance positive and at most 0.15 m"},
       {"localized(robot)", "the robot's pose must be known from the requested pose source"},
-      {"observed(?object)", "the overhead camera must have seen the object recently"},
+      {"observed(scene)", "the overhead camera must have seen the object recently"},
       {"pushable(?object, ?side)", "the approach spot must be free and the object must not end in a wall"},
       {"reachable(?object, ?side)", "a collision-free path must lead from the robot to the approach spot"}};
-  declared.effects = {"pushed(?object, ?side, ?offset, ?distance)"};
+  // The push changes the scene: what was observed before no longer holds.
+  declared.effects = {"pushed(?object, ?side, ?offset, ?distance)", "not observed(scene)"};
   ContractChecker<PushGoal> contract(declared);
   contract
       .bind([](const PushGoal& g) {
@@ -68,7 +69,7 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                core::Pose2D pose;
                return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
              })
-      .check("observed(?object)",
+      .check("observed(scene)",
              [this](const PushGoal& g) {
                core::BoxObstacle object;
                return observedObject(g.object, observation_max_age_, &object);
