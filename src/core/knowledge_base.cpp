@@ -362,6 +362,14 @@ std::optional<RunInfo> KnowledgeBase::run(std::int64_t run_id) {
   return readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
 }
 
+std::vector<RunInfo> KnowledgeBase::runs() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Statement select(*this, (std::string(kRunColumns) + "ORDER BY id").c_str());
+  std::vector<RunInfo> all;
+  while (select.step()) all.push_back(readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); }));
+  return all;
+}
+
 void KnowledgeBase::finishRun(std::int64_t run_id, const std::string& status) {
   throwIfInvalid(checkOneOf("final run status", status, {"finished", "stopped"}));
   std::lock_guard<std::mutex> lock(mutex_);

@@ -48,7 +48,12 @@ EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh) {
                             ? std::max(object.shape.box_size.x(), object.shape.box_size.y())
                             : 2.0 * object.shape.radius;
     setup.object_sizes[object.name] = size;
+    setup.initial_poses[object.name] = {object.pose.translation().x(), object.pose.translation().y(),
+                                        core::yawOf(object.pose)};
   }
+  setup.robot_name = spec.robot.name;
+  setup.initial_poses[spec.robot.name] = {spec.robot.pose.translation().x(), spec.robot.pose.translation().y(),
+                                          core::yawOf(spec.robot.pose)};
   return setup;
 }
 

@@ -1,16 +1,26 @@
 // xpersif: the console client of the paper. It finds every component by its ~status topic and shows or
-// changes its state. Later issues add the loop's commands (configure a run, start, pause, resume, stop).
+// changes its state, and it drives LOOPMODEL: configure and start a run, pause, resume, stop, confirm,
+// hand-chosen experiments (sliding autonomy), progress.
 #include <ros/master.h>
 #include <ros/ros.h>
 
 #include <iomanip>
+#include <iterator>
 #include <iostream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <actionlib/client/simple_action_client.h>
+#include <std_srvs/Trigger.h>
+
+#include <csignal>
+#include <fstream>
+
 #include "xpersif/ComponentStatus.h"
+#include "xpersif/RunLoopAction.h"
+#include "xpersif/SetExperiment.h"
 #include "xpersif/GetContracts.h"
 #include "xpersif/Transition.h"
 
@@ -24,6 +34,14 @@ const char* kUsage = R"(usage: xpersif <command> [arguments]
   configure|activate|deactivate|shutdown COMPONENT
                                        ask a component for a lifecycle transition
   contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
+
+The loop (LOOPMODEL at --loop, default /xpersif/loop_model):
+  run NAME [--experiments N] [--goals N] [--design curiosity|random|grid] [--seed S] [--resume]
+      [--confirm-each] [--plan FILE]     start a run and follow it to the end (Ctrl-C cancels it);
+                                       FILE: one pre-planned experiment per line: OBJECT SIDE OFFSET DISTANCE
+  pause | resume | stop | confirm      sliding autonomy on the running loop
+  next OBJECT SIDE OFFSET DISTANCE     run this experiment next instead of the designed one
+  progress                             the loop's state and its last experiment
 
 COMPONENT is a node name such as /loop/supervisor. Default timeout: 3 s for status, 60 s for wait.
 )";
@@ -168,6 +186,155 @@ int contracts(const std::string& component, const std::string& name) {
   return 0;
 }
 
+std::string loop_name = "/xpersif/loop_model";
+
+bool parseExperiment(const std::vector<std::string>& words, std::size_t at, xpersif::Experiment* e) {
+  if (words.size() < at + 4) return false;
+  e->object = words[at];
+  e->side = words[at + 1];
+  try {
+    e->offset = std::stod(words[at + 2]);
+    e->distance = std::stod(words[at + 3]);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
+}
+
+int trigger(const std::string& operation) {
+  std_srvs::Trigger call;
+  const std::string service = loop_name + "/" + operation;
+  if (!ros::service::waitForService(service, ros::Duration(5.0)) || !ros::service::call(service, call)) {
+    std::cerr << "xpersif: " << service << " did not answer (is the loop running?)\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  std::cout << operation << ": " << call.response.message << "\n";
+  return 0;
+}
+
+int next(const std::vector<std::string>& rest) {
+  xpersif::SetExperiment call;
+  if (!parseExperiment(rest, 0, &call.request.experiment)) {
+    std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next red_cube -x 0.01 0.05\n";
+    return 2;
+  }
+  const std::string service = loop_name + "/set_next_experiment";
+  if (!ros::service::call(service, call)) {
+    std::cerr << "xpersif: " << service << " did not answer\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  std::cout << "next: " << call.response.message << "\n";
+  return 0;
+}
+
+void printProgress(const xpersif::RunLoopFeedback& p) {
+  std::cout << "[" << p.state << "] experiment " << p.experiment << ", surprise " << std::fixed << std::setprecision(4)
+            << p.surprise << " m: " << p.last << std::endl;
+}
+
+int progress() {
+  ros::NodeHandle nh;
+  bool got = false;
+  auto sub = nh.subscribe<xpersif::RunLoopFeedback>(loop_name + "/progress", 1,
+                                                    [&](const xpersif::RunLoopFeedback::ConstPtr& p) {
+                                                      printProgress(*p);
+                                                      got = true;
+                                                    });
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(3.0);
+  while (!got && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  if (!got) std::cerr << "xpersif: no progress from " << loop_name << "\n";
+  return got ? 0 : 1;
+}
+
+volatile std::sig_atomic_t interrupted = 0;
+
+int runLoop(const std::vector<std::string>& rest) {
+  xpersif::RunLoopGoal goal;
+  goal.experiments = 20;
+  goal.goals = 5;
+  goal.design = "curiosity";
+  goal.seed = 1;
+  std::vector<std::string> words;
+  try {
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      const std::string& a = rest[i];
+      const bool has_value = i + 1 < rest.size();
+      if (a == "--experiments" && has_value) {
+        goal.experiments = static_cast<std::uint32_t>(std::stoul(rest[++i]));
+      } else if (a == "--goals" && has_value) {
+        goal.goals = static_cast<std::uint32_t>(std::stoul(rest[++i]));
+      } else if (a == "--design" && has_value) {
+        goal.design = rest[++i];
+      } else if (a == "--seed" && has_value) {
+        goal.seed = std::stoull(rest[++i]);
+      } else if (a == "--resume") {
+        goal.resume = true;
+      } else if (a == "--confirm-each") {
+        goal.confirm_each = true;
+      } else if (a == "--plan" && has_value) {
+        std::ifstream in(rest[++i]);
+        if (!in) {
+          std::cerr << "xpersif: cannot read the plan file " << rest[i] << "\n";
+          return 2;
+        }
+        std::string line;
+        for (int number = 1; std::getline(in, line); ++number) {
+          std::istringstream fields(line);
+          std::vector<std::string> parts{std::istream_iterator<std::string>(fields), {}};
+          if (parts.empty() || parts[0][0] == '#') continue;
+          xpersif::Experiment e;
+          if (!parseExperiment(parts, 0, &e)) {
+            std::cerr << "xpersif: " << rest[i] << ":" << number << ": expected OBJECT SIDE OFFSET DISTANCE\n";
+            return 2;
+          }
+          goal.plan.push_back(e);
+        }
+      } else {
+        words.push_back(a);
+      }
+    }
+  } catch (const std::exception&) {
+    std::cerr << "xpersif: run: a number was expected after an option\n";
+    return 2;
+  }
+  if (words.size() != 1) {
+    std::cerr << "xpersif: run needs exactly one NAME\n" << kUsage;
+    return 2;
+  }
+  goal.name = words[0];
+  actionlib::SimpleActionClient<xpersif::RunLoopAction> client(loop_name + "/run", true);
+  if (!client.waitForServer(ros::Duration(30.0))) {
+    std::cerr << "xpersif: " << loop_name << "/run is not offered (is the loop running?)\n";
+    return 1;
+  }
+  std::signal(SIGINT, [](int) { interrupted = 1; });
+  client.sendGoal(goal, {}, {}, [](const xpersif::RunLoopFeedbackConstPtr& p) { printProgress(*p); });
+  bool cancelled = false;
+  while (!client.getState().isDone()) {
+    if (interrupted && !cancelled) {
+      std::cout << "xpersif: cancelling the run (it can be resumed with --resume)" << std::endl;
+      client.cancelGoal();
+      cancelled = true;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  const auto state = client.getState();
+  const auto result = client.getResult();
+  std::cout << "run " << (result ? result->run_id : 0) << ": " << state.toString() << ": " << state.getText() << "\n";
+  return state == actionlib::SimpleClientGoalState::SUCCEEDED ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -186,6 +353,8 @@ int main(int argc, char** argv) {
         std::cerr << "xpersif: --timeout needs a positive number of seconds, not '" << args[i] << "'\n";
         return 2;
       }
+    } else if (args[i] == "--loop" && i + 1 < args.size()) {
+      loop_name = args[++i];
     } else {
       rest.push_back(args[i]);
     }
@@ -215,6 +384,16 @@ int main(int argc, char** argv) {
   if (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) {
     return contracts(rest[0], rest.size() == 2 ? rest[1] : "");
   }
+  if (command == "run") {
+    ros::AsyncSpinner spinner(1);
+    spinner.start();
+    return runLoop(rest);
+  }
+  if ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") && rest.empty()) {
+    return trigger(command);
+  }
+  if (command == "next") return next(rest);
+  if (command == "progress") return progress();
   std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
   return 2;
 }

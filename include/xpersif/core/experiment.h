@@ -22,9 +22,9 @@
 #include <cstddef>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "xpersif/core/pose2d.h"
-#include <vector>
 
 namespace xpersif::core {
 
@@ -83,9 +83,6 @@ struct Notion {
   int support = 0;         ///< how many experiments back it
   std::string text;        ///< one English sentence
 };
-
-/// Wrap an angle to (-pi, pi].
-
 
 /// Heading of the push direction in the object's frame: "-x" -> 0, "+x" -> pi, "-y" -> pi/2, "+y" -> -pi/2.
 /// Throws ValidationError for an unknown side.

@@ -116,6 +116,8 @@ class KnowledgeBase {
   /// The latest run still "running" (a run whose process died), if any.
   std::optional<RunInfo> findResumableRun();
   std::optional<RunInfo> run(std::int64_t run_id);
+  /// Every run, oldest first.
+  std::vector<RunInfo> runs();
   /// Mark a run "finished" or "stopped" and stamp its end.
   void finishRun(std::int64_t run_id, const std::string& status = "finished");
 

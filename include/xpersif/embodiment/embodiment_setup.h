@@ -24,6 +24,8 @@ struct EmbodimentSetup {
   double max_wheel_speed = 0.5;  ///< m/s at the rim
   double wheel_separation = 0.053;
   std::map<std::string, double> object_sizes;  ///< name -> edge length of its (cubic) footprint, m
+  std::map<std::string, core::Pose2D> initial_poses;  ///< where the world file puts the objects and the robot
+  std::string robot_name;                             ///< the robot's body name (XPERSim's set_pose)
   std::vector<std::string> objectNames() const;
 };
 

@@ -1,0 +1,42 @@
+/**
+ * @file evaluation.h
+ * @brief How well a run learned: prediction error on a fixed evaluation set against the number of
+ *        experiments learned from, for any design (curiosity-driven, random, ...), computed from the knowledge
+ *        base alone. ROS-free; used by the report tool and the benchmarks.
+ *
+ * The model after k experiments is what MACHINELEARNING had learned then: a PushLearner with the same
+ * configuration, trained on the run's first k successful experiments in their order (training is
+ * deterministic, push_learner.h). Its error on the evaluation set is the RMS over the evaluation experiments
+ * of core::surprise().error (metres, a turn counted at 2 cm), so every design is judged on the same pushes.
+ */
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "xpersif/core/knowledge_base.h"
+#include "xpersif/core/push_learner.h"
+
+namespace xpersif::core {
+
+/// The learner's samples in a run's records: successful experiments whose before-vector has the object.
+std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records);
+
+/// The configuration MACHINELEARNING uses: hue and size as features plus the objects' identities.
+PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities);
+
+struct LearningCurve {
+  std::string name;
+  std::vector<int> experiments;  ///< k
+  std::vector<double> error;     ///< RMS error on the evaluation set after k experiments, m
+};
+
+/// Error after each k in @p checkpoints (k larger than the samples available are skipped).
+LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
+                            const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
+                            const std::vector<int>& checkpoints);
+
+/// The first k at which the curve is at or below @p error, or -1.
+int experimentsToReach(const LearningCurve& curve, double error);
+
+}  // namespace xpersif::core

@@ -1,0 +1,92 @@
+/**
+ * @file loop_model.h
+ * @brief LOOPMODEL (organizational): the loop's centre. It starts, parametrizes, watches and restarts the
+ *        loop's components (the `~components` list, as for any Supervisor: XPERSim, ROBOTMODEL,
+ *        KNOWLEDGEBASE, MACHINELEARNING, MOTIVATION, DESIGNOFEXPERIMENTS, PLANNER, EXECUTION, GOALDESIGN)
+ *        and runs the loop's state machine through the command `run` (xpersif/RunLoop):
+ *
+ *   experimenting   design an experiment (or take the hand-chosen / pre-planned one), plan it from the
+ *                   contracts, predict it, execute it, compute the outcome, record it (MACHINELEARNING and
+ *                   MOTIVATION learn from the recorded experiment), until the run has its experiments;
+ *   goal_directed   GOALDESIGN sets goals ("bring the red cube to (x, y)") and chooses pushes with the
+ *                   learned model; each push is planned and executed the same way;
+ *   paused / waiting_for_confirmation   sliding autonomy: operations pause, resume, confirm, stop,
+ *                   set_next_experiment.
+ *
+ * Everything that happens is in the knowledge base, so a run that was interrupted (a component died, the
+ * whole system was stopped) resumes where it stopped (goal.resume). The arena is tidied between
+ * experiments as an experimenter would: a cube pushed against a wall or out of sight is put back at a free
+ * spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
+ * `~progress` (RunLoopFeedback).
+ *
+ * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
+ * `~tidy_margin` (m, 0.08), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (4), `~learning_timeout` (s, 20),
+ * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
+ * and the `world` file for the arena (embodiment_setup.h).
+ */
+#pragma once
+
+#include <std_srvs/Trigger.h>
+
+#include <atomic>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <random>
+
+#include "xpersif/ExperimentRecord.h"
+#include "xpersif/FeatureVector.h"
+#include "xpersif/LearnedModel.h"
+#include "xpersif/Motivation.h"
+#include "xpersif/RunLoopAction.h"
+#include "xpersif/SetExperiment.h"
+#include "xpersif/component/supervisor.h"
+#include "xpersif/embodiment/embodiment_setup.h"
+
+namespace xpersif {
+
+class LoopModel : public Supervisor {
+ public:
+  LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+  using Run = CommandServer<RunLoopAction>;
+
+ protected:
+  void onConfigure() override;
+
+ private:
+  /// One experiment, start to end; fills @p record (status done or failed, with the reason).
+  void runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
+                     ExperimentRecord& record);
+  CommandOutcome run(Run::Context& context, RunLoopResult& result);
+  /// "" or why the loop must end now (cancel, stop, shutdown); waits while paused or unconfirmed.
+  std::string gate(Run::Context& context, bool confirm_each);
+  void setState(const std::string& state);
+  void publishProgress(Run::Context* context);
+  /// Put cubes pushed against the walls or out of sight back at free spots.
+  void tidyArena(const FeatureVector& scene);
+  /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
+  std::string arrangeInitialScene();
+  bool getScene(FeatureVector* scene, std::string* why, double newer_than = 0);
+  void waitForLearning(std::uint32_t samples, Run::Context& context);
+
+  std::mutex mutex_;
+  EmbodimentSetup setup_;
+  std::string pose_source_ = "observation";
+  int retries_ = 1;
+  bool tidy_ = true, arrange_at_start_ = true;
+  double tidy_margin_ = 0.08, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
+  int max_goal_pushes_ = 4;
+  std::mt19937_64 rng_{1};
+
+  std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
+  std::atomic<int> confirmations_{0};
+  std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
+  RunLoopFeedback progress_;
+  std::uint32_t model_samples_ = 0;
+
+  ros::Publisher progress_pub_;
+  ros::Subscriber model_sub_;
+};
+
+}  // namespace xpersif

@@ -1,0 +1,55 @@
+#include "xpersif/core/evaluation.h"
+
+#include <cmath>
+
+#include "xpersif/core/motivation.h"
+
+namespace xpersif::core {
+
+std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records) {
+  std::vector<PushSample> samples;
+  for (const auto& r : records) {
+    if (r.status != "done" || !r.outcome) continue;
+    const ObjectFeatures* object = r.before.find(r.experiment.object);
+    if (!object) continue;
+    samples.push_back({{r.experiment, *object}, *r.outcome});
+  }
+  return samples;
+}
+
+PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities) {
+  PushLearnerConfig config;
+  config.feature_names = {"hue", "size"};
+  config.one_hot_identity = true;
+  config.identities = identities;
+  return config;
+}
+
+LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
+                            const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
+                            const std::vector<int>& checkpoints) {
+  LearningCurve curve;
+  curve.name = name;
+  for (int k : checkpoints) {
+    if (k < 0 || k > static_cast<int>(training.size())) continue;
+    PushLearner learner(config);
+    learner.addSamples(std::vector<PushSample>(training.begin(), training.begin() + k));
+    double sum = 0;
+    for (const auto& s : evaluation) {
+      const double e = surprise(learner.predict(s.input), s.outcome).error;
+      sum += e * e;
+    }
+    curve.experiments.push_back(k);
+    curve.error.push_back(evaluation.empty() ? NAN : std::sqrt(sum / evaluation.size()));
+  }
+  return curve;
+}
+
+int experimentsToReach(const LearningCurve& curve, double error) {
+  for (std::size_t i = 0; i < curve.error.size(); ++i) {
+    if (curve.error[i] <= error) return curve.experiments[i];
+  }
+  return -1;
+}
+
+}  // namespace xpersif::core

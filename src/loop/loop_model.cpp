@@ -1,0 +1,573 @@
+#include "xpersif/loop/loop_model.h"
+
+#include <actionlib/client/simple_action_client.h>
+
+#include <cmath>
+#include <sstream>
+
+#include "xpersif/ChoosePush.h"
+#include "xpersif/DesignExperiment.h"
+#include "xpersif/DesignGoal.h"
+#include "xpersif/ExecutePlanAction.h"
+#include "xpersif/FinishRun.h"
+#include "xpersif/GetFeatures.h"
+#include "xpersif/MakePlan.h"
+#include "xpersif/Predict.h"
+#include "xpersif/RecordExperiment.h"
+#include "xpersif/RecordGoal.h"
+#include "xpersif/SetPose.h"
+#include "xpersif/StartRun.h"
+#include "xpersif/core/motivation.h"
+#include "xpersif/ros/experiment_conversions.h"
+
+namespace xpersif {
+
+namespace {
+
+/// a - b for yaws folded modulo @p period (a cube's yaw is only known up to quarter turns).
+double foldedDifference(double a, double b, double period) {
+  double d = std::remainder(a - b, period);
+  return d <= -period / 2 ? d + period : d;
+}
+
+std::string describe(const Experiment& e) {
+  std::ostringstream out;
+  out << "push " << e.object << " on " << e.side << " by " << e.distance << " m at offset " << e.offset << " m";
+  return out.str();
+}
+
+std::string literalNumber(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+}  // namespace
+
+LoopModel::LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Supervisor(std::move(nh), std::move(private_nh), "xpersif/LoopModelNodelet") {
+  core::Contract run_contract;
+  run_contract.name = "run";
+  run_contract.kind = core::Contract::Kind::Command;
+  run_contract.interface_type = "xpersif/RunLoopAction";
+  run_contract.description = "run the cognitive loop: experiments, then goals, recorded in the knowledge base";
+  run_contract.parameters = {"?name", "?design"};
+  run_contract.preconditions = {{"valid_run(?design)", "the design must be curiosity, random or grid, the plan valid"},
+                                {"idle(loop)", "no other run may be in progress"}};
+  run_contract.effects = {"finished(?name)", "learned(?name)"};
+  ContractChecker<RunLoopGoal> checker(run_contract);
+  checker
+      .bind([](const RunLoopGoal& g) { return core::Bindings{{"?name", g.name}, {"?design", g.design}}; })
+      .check("valid_run(?design)",
+             [](const RunLoopGoal& g) {
+               std::string why = core::checkOneOf("goal.design", g.design, {"curiosity", "random", "grid"});
+               if (why.empty()) why = core::checkMaxSize("goal.plan", g.plan.size(), 1000);
+               for (std::size_t i = 0; why.empty() && i < g.plan.size(); ++i) {
+                 why = core::checkExperiment("goal.plan[" + std::to_string(i) + "]", fromMsg(g.plan[i]));
+               }
+               if (why.empty()) why = core::checkInRange("goal.experiments", g.experiments, 0, 100000);
+               if (why.empty()) why = core::checkInRange("goal.goals", g.goals, 0, 10000);
+               return why;
+             })
+      .check("idle(loop)", [this](const RunLoopGoal&) {
+        return running_ ? "a run is in progress; stop it first" : std::string();
+      });
+  addCommand<RunLoopAction>(
+      checker, [](const RunLoopGoal& g) { core::requireIdentifier("goal.name", g.name); },
+      [this](Run::Context& context, RunLoopResult& result) { return run(context, result); });
+
+  auto trigger = [this](const std::string& name, const std::string& description, const std::string& precondition,
+                        const std::string& precondition_text, const std::string& effect,
+                        std::function<std::string()> check, std::function<void()> act) {
+    core::Contract c;
+    c.name = name;
+    c.kind = core::Contract::Kind::Operation;
+    c.interface_type = "std_srvs/Trigger";
+    c.description = description;
+    c.preconditions = {{precondition, precondition_text}};
+    c.effects = {effect};
+    ContractChecker<std_srvs::Trigger::Request> contract(c);
+    contract.check(precondition, [check](const std_srvs::Trigger::Request&) { return check(); });
+    addOperation<std_srvs::Trigger>(
+        contract, nullptr,
+        [act](const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+          act();
+          response.message = "ok";
+        });
+  };
+  trigger("pause", "pause the run after the current step", "running(loop)", "a run must be in progress",
+          "paused(loop)", [this] { return running_ ? "" : "no run is in progress"; },
+          [this] { paused_ = true; });
+  trigger("resume", "resume a paused run", "paused(loop)", "the run must be paused", "not paused(loop)",
+          [this] { return paused_ ? "" : "the run is not paused"; }, [this] { paused_ = false; });
+  trigger("stop", "stop the run after the current step; it can be resumed later", "running(loop)",
+          "a run must be in progress", "stopped(loop)", [this] { return running_ ? "" : "no run is in progress"; },
+          [this] { stop_requested_ = true; });
+  trigger("confirm", "let the waiting experiment go ahead (sliding autonomy)", "waiting(loop)",
+          "the loop must be waiting for a confirmation", "confirmed(loop)",
+          [this] { return waiting_confirmation_ ? "" : "the loop is not waiting for a confirmation"; },
+          [this] { ++confirmations_; });
+
+  core::Contract next;
+  next.name = "set_next_experiment";
+  next.kind = core::Contract::Kind::Operation;
+  next.interface_type = "xpersif/SetExperiment";
+  next.description = "run this experiment next instead of the designed one (sliding autonomy)";
+  next.parameters = {"?object", "?side"};
+  next.effects = {"next_experiment(?object, ?side)"};
+  ContractChecker<SetExperiment::Request> next_contract(next);
+  next_contract.bind([](const SetExperiment::Request& r) {
+    return core::Bindings{{"?object", r.experiment.object}, {"?side", r.experiment.side}};
+  });
+  addOperation<SetExperiment>(
+      next_contract,
+      [this](const SetExperiment::Request& r) {
+        core::requireExperiment("experiment", fromMsg(r.experiment));
+        core::requireKnownName("experiment.object", r.experiment.object, setup_.objectNames());
+      },
+      [this](const SetExperiment::Request& r, SetExperiment::Response& response) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        next_experiments_.push_back(r.experiment);
+        response.message = "queued as number " + std::to_string(next_experiments_.size());
+      });
+}
+
+void LoopModel::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  std::string pose_source = "observation";
+  int retries = 1, max_goal_pushes = 4;
+  bool tidy = true;
+  double tidy_margin = 0.08, goal_tolerance = 0.05, learning_timeout = 20.0;
+  pnh.param("pose_source", pose_source, pose_source);
+  pnh.param("retries", retries, retries);
+  pnh.param("tidy", tidy, tidy);
+  bool arrange = true;
+  pnh.param("arrange_at_start", arrange, arrange);
+  pnh.param("tidy_margin", tidy_margin, tidy_margin);
+  pnh.param("goal_tolerance", goal_tolerance, goal_tolerance);
+  pnh.param("max_goal_pushes", max_goal_pushes, max_goal_pushes);
+  pnh.param("learning_timeout", learning_timeout, learning_timeout);
+  core::requireOneOf("~pose_source", pose_source, {"odometry", "observation"});
+  core::requireInRange("~retries", retries, 0, 10);
+  core::requireInRange("~tidy_margin", tidy_margin, 0.0, 0.2);
+  core::requireInRange("~goal_tolerance", goal_tolerance, 0.005, 0.5);
+  core::requireInRange("~max_goal_pushes", max_goal_pushes, 1, 50);
+  core::requirePositive("~learning_timeout", learning_timeout);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    setup_ = setup;
+    pose_source_ = pose_source;
+    retries_ = retries;
+    tidy_ = tidy;
+    arrange_at_start_ = arrange;
+    tidy_margin_ = tidy_margin;
+    goal_tolerance_ = goal_tolerance;
+    max_goal_pushes_ = max_goal_pushes;
+    learning_timeout_ = learning_timeout;
+    progress_.state = "idle";
+    if (!progress_pub_) progress_pub_ = pnh.advertise<RunLoopFeedback>("progress", 1, true);
+  }
+  model_sub_ = nodeHandle().subscribe<LearnedModel>("machine_learning/model", 1, [this](const LearnedModel::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    model_samples_ = m->samples;
+  });
+  publishProgress(nullptr);
+  Supervisor::onConfigure();
+}
+
+// ---- helpers --------------------------------------------------------------------------------------------
+
+namespace {
+/// Call a service of another component from the loop's own thread; "" or why it failed.
+template <class Service>
+std::string call(ros::NodeHandle& nh, const std::string& name, Service& service) {
+  const std::string resolved = nh.resolveName(name);
+  if (!ros::service::waitForService(resolved, ros::Duration(10.0))) return "service " + resolved + " is not offered";
+  if (!ros::service::call(resolved, service)) return "service " + resolved + " did not answer";
+  if (!service.response.success) return resolved + ": " + service.response.message;
+  return "";
+}
+}  // namespace
+
+void LoopModel::setState(const std::string& state) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  progress_.state = state;
+}
+
+void LoopModel::publishProgress(Run::Context* context) {
+  RunLoopFeedback progress;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    progress = progress_;
+  }
+  if (progress_pub_) progress_pub_.publish(progress);
+  if (context) context->publishFeedback(progress);
+}
+
+bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_than) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::ok()) {
+    GetFeatures features;
+    features.request.max_age = 2.0;
+    *why = call(nodeHandle(), "vision/get_features", features);
+    if (why->empty() && features.response.features.header.stamp.toSec() > newer_than) {
+      *scene = features.response.features;
+      return true;
+    }
+    if (ros::WallTime::now() > deadline) {
+      if (why->empty()) *why = "no new observation of the scene came within 10 s";
+      return false;
+    }
+    ros::WallDuration(0.02).sleep();
+  }
+  *why = "shutting down";
+  return false;
+}
+
+void LoopModel::tidyArena(const FeatureVector& scene) {
+  std::vector<std::string> misplaced;
+  std::vector<std::pair<double, double>> occupied;
+  for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
+  if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
+  const double hx = setup_.arena.size_x / 2 - tidy_margin_, hy = setup_.arena.size_y / 2 - tidy_margin_;
+  for (const auto& [name, size] : setup_.object_sizes) {
+    const ObjectFeatures* o = findObject(scene, name);
+    if (!o || std::abs(o->position.x) > hx || std::abs(o->position.y) > hy) misplaced.push_back(name);
+  }
+  for (const auto& name : misplaced) {
+    std::uniform_real_distribution<double> ux(-hx + 0.02, hx - 0.02), uy(-hy + 0.02, hy - 0.02);
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      const double x = ux(rng_), y = uy(rng_);
+      bool free = true;
+      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > 0.12;
+      if (!free) continue;
+      SetPose place;
+      place.request.name = name;
+      place.request.pose.position.x = x;
+      place.request.pose.position.y = y;
+      place.request.pose.orientation.w = 1.0;
+      const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
+      if (!why.empty()) {
+        ROS_WARN("%s: could not tidy %s away: %s", name.c_str(), this->name().c_str(), why.c_str());
+      } else {
+        events().publish(events().make(ComponentEvent::SUPERVISION, "tidy", "ok",
+                                       "put " + name + " back at (" + literalNumber(x) + ", " + literalNumber(y) + ")"));
+        occupied.emplace_back(x, y);
+      }
+      break;
+    }
+  }
+}
+
+std::string LoopModel::arrangeInitialScene() {
+  for (const auto& [name, pose] : setup_.initial_poses) {
+    SetPose place;
+    place.request.name = name;
+    place.request.pose.position.x = pose.x;
+    place.request.pose.position.y = pose.y;
+    place.request.pose.orientation.z = std::sin(pose.yaw / 2);
+    place.request.pose.orientation.w = std::cos(pose.yaw / 2);
+    const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
+    if (!why.empty()) return why;
+  }
+  return "";
+}
+
+void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(learning_timeout_);
+  while (ros::WallTime::now() < deadline && !context.stopRequested()) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (model_samples_ >= samples) return;
+    }
+    ros::WallDuration(0.01).sleep();
+  }
+  ROS_WARN("%s: MACHINELEARNING has not learned experiment %u within %.0f s; going on", name().c_str(), samples,
+           learning_timeout_);
+}
+
+std::string LoopModel::gate(Run::Context& context, bool confirm_each) {
+  auto stopping = [&]() -> std::string {
+    if (context.cancelRequested()) return "cancelled";
+    if (context.stopRequested()) return "component stopping";
+    if (stop_requested_) return "stopped on request";
+    return "";
+  };
+  std::string why = stopping();
+  if (!why.empty()) return why;
+  if (paused_) {
+    setState("paused");
+    publishProgress(&context);
+    while (paused_ && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
+    if (!why.empty()) return why;
+  }
+  if (confirm_each) {
+    const int seen = confirmations_;
+    waiting_confirmation_ = true;
+    setState("waiting_for_confirmation");
+    publishProgress(&context);
+    while (confirmations_ == seen && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
+    waiting_confirmation_ = false;
+    if (!why.empty()) return why;
+  }
+  return "";
+}
+
+// ---- one experiment -------------------------------------------------------------------------------------
+
+void LoopModel::runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
+                              ExperimentRecord& record) {
+  record.design = design;
+  record.experiment = experiment;
+  record.status = "failed";
+  record.started = ros::Time::now().toSec();
+  auto fail = [&](const std::string& why) {
+    record.reason = why;
+    record.finished = ros::Time::now().toSec();
+  };
+
+  // Plan from the contracts: observe, push, observe again.
+  MakePlan plan;
+  plan.request.goal = {"pushed(" + experiment.object + ", " + experiment.side + ", " + literalNumber(experiment.offset) +
+                           ", " + literalNumber(experiment.distance) + ")",
+                       "observed(scene)"};
+  std::string why = call(nodeHandle(), "planner/make_plan", plan);
+  if (!why.empty()) return fail("no plan: " + why);
+
+  actionlib::SimpleActionClient<ExecutePlanAction> execution(nodeHandle(), "execution/execute_plan", false);
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (!execution.isServerConnected() && ros::WallTime::now() < until) ros::WallDuration(0.01).sleep();
+  if (!execution.isServerConnected()) return fail("EXECUTION's execute_plan is not offered");
+  ExecutePlanGoal goal;
+  goal.steps = plan.response.steps;
+  goal.pose_source = pose_source_;
+  goal.retries = static_cast<std::uint32_t>(retries_);
+  execution.sendGoal(goal);
+  while (!execution.getState().isDone()) {
+    if (context.stopRequested()) {
+      execution.cancelGoal();
+      execution.waitForResult(ros::Duration(10.0));
+      return fail("stopped during execution");
+    }
+    ros::WallDuration(0.01).sleep();
+  }
+  const auto result = execution.getResult();
+  if (execution.getState() != actionlib::SimpleClientGoalState::SUCCEEDED || !result || !result->success) {
+    return fail("execution failed: " + execution.getState().getText());
+  }
+  if (result->observations.size() < 2) return fail("the plan made fewer than two observations");
+  record.before = result->observations.front();
+  record.after = result->observations.back();
+  const ObjectFeatures* before = findObject(record.before, experiment.object);
+  const ObjectFeatures* after = findObject(record.after, experiment.object);
+  if (!before || !after) return fail("the overhead camera lost " + experiment.object + " during the experiment");
+
+  // What the model expected (it has not seen this experiment yet) ...
+  Predict predict;
+  predict.request.experiment = experiment;
+  predict.request.object = *before;
+  why = call(nodeHandle(), "machine_learning/predict", predict);
+  if (!why.empty()) return fail("no prediction: " + why);
+  record.predicted_mean = predict.response.mean;
+  record.predicted_std = predict.response.std;
+
+  // ... and what happened, in the push frame.
+  core::ObjectFeatures b = fromMsg(*before), a = fromMsg(*after);
+  const double period = before->yaw_period > 0 ? before->yaw_period : 2 * M_PI;
+  a.yaw = b.yaw + foldedDifference(a.yaw, b.yaw, period);
+  try {
+    const core::Outcome outcome = core::computeOutcome(b, a, experiment.side);
+    record.dx = outcome.dx;
+    record.dy = outcome.dy;
+    record.dyaw = outcome.dyaw;
+    core::Prediction prediction;
+    prediction.mean = {record.predicted_mean.at(0), record.predicted_mean.at(1), record.predicted_mean.at(2)};
+    prediction.std = {record.predicted_std.at(0), record.predicted_std.at(1), record.predicted_std.at(2)};
+    record.surprise = core::surprise(prediction, outcome).error;
+  } catch (const std::exception& e) {
+    return fail(std::string("cannot compute the outcome: ") + e.what());
+  }
+  record.status = "done";
+  record.finished = ros::Time::now().toSec();
+}
+
+// ---- the run --------------------------------------------------------------------------------------------
+
+CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
+  const RunLoopGoal& goal = context.goal();
+  running_ = true;
+  paused_ = false;
+  stop_requested_ = false;
+  struct Running {
+    std::atomic<bool>& flag;
+    ~Running() { flag = false; }
+  } running{running_};
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rng_.seed(goal.seed);
+    for (const auto& e : goal.plan) next_experiments_.push_back(e);
+    progress_ = RunLoopFeedback();
+  }
+
+  StartRun start;
+  start.request.name = goal.name;
+  start.request.seed = goal.seed;
+  start.request.design = goal.design;
+  start.request.resume = goal.resume;
+  std::ostringstream parameters;
+  parameters << "{\"experiments\":" << goal.experiments << ",\"goals\":" << goal.goals << ",\"design\":\"" << goal.design
+             << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\"}";
+  start.request.parameters = parameters.str();
+  std::string why = call(nodeHandle(), "knowledge_base/start_run", start);
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot start the run: " + why);
+  result.run_id = start.response.run_id;
+  if (arrange_at_start_ && !start.response.resumed) {
+    why = arrangeInitialScene();
+    if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
+    ros::Duration(0.5).sleep();  // let odometry and the overhead camera see the new scene
+  }
+  std::uint32_t done = start.response.experiments_done;  // counted towards goal.experiments
+  std::uint32_t learned = 0;  // successful experiments the model has seen in this run
+  setState("experimenting");
+  auto finish = [&](const std::string& status) {
+    FinishRun finish_run;
+    finish_run.request.run_id = result.run_id;
+    finish_run.request.status = status;
+    call(nodeHandle(), "knowledge_base/finish_run", finish_run);
+    setState(status);
+    publishProgress(&context);
+  };
+  auto ended = [&](const std::string& reason) {
+    finish("stopped");
+    result.message = reason + " after " + std::to_string(result.experiments_done) + " experiments";
+    if (context.cancelRequested()) return CommandOutcome::preempted(result.message);
+    return CommandOutcome::aborted(result.message);
+  };
+
+  // ---- experimentation state ----
+  while (done < goal.experiments) {
+    why = gate(context, goal.confirm_each);
+    if (!why.empty()) return ended(why);
+    setState("experimenting");
+    FeatureVector scene;
+    if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
+    if (tidy_) {
+      tidyArena(scene);
+      if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
+    }
+    Experiment experiment;
+    std::string design = goal.design;
+    bool chosen = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!next_experiments_.empty()) {
+        experiment = next_experiments_.front();
+        next_experiments_.pop_front();
+        design = "hand";
+        chosen = true;
+      }
+    }
+    if (!chosen) {
+      DesignExperiment request;
+      request.request.design = goal.design;
+      why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
+      if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
+      experiment = request.response.experiment;
+    }
+    ExperimentRecord record;
+    runExperiment(experiment, design, context, record);
+    if (context.stopRequested() && record.status != "done") return ended("stopped during an experiment");
+    RecordExperiment store;
+    store.request.record = record;
+    store.request.record.run_id = result.run_id;
+    why = call(nodeHandle(), "knowledge_base/record_experiment", store);
+    if (!why.empty()) return ended("the knowledge base refused the experiment: " + why);
+    ++done;
+    if (record.status == "done") {
+      ++result.experiments_done;
+      waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
+    } else {
+      ++result.experiments_failed;
+      ROS_WARN("%s: experiment %u failed: %s", name().c_str(), done, record.reason.c_str());
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      progress_.experiment = done;
+      progress_.surprise = record.surprise;
+      progress_.last = describe(experiment) + (record.status == "done" ? "" : " (failed: " + record.reason + ")");
+    }
+    publishProgress(&context);
+  }
+
+  // ---- goal-directed state ----
+  setState("goal_directed");
+  publishProgress(&context);
+  for (std::uint32_t g = 0; g < goal.goals; ++g) {
+    why = gate(context, false);
+    if (!why.empty()) return ended(why);
+    FeatureVector scene;
+    if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
+    if (tidy_) {
+      tidyArena(scene);
+      if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
+    }
+    DesignGoal design;
+    design.request.scene = scene;
+    why = call(nodeHandle(), "goal_design/design_goal", design);
+    if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
+    ++result.goals_tried;
+    RecordGoal record_goal;
+    record_goal.request.run_id = result.run_id;
+    record_goal.request.object = design.response.object;
+    record_goal.request.target_x = design.response.target_x;
+    record_goal.request.target_y = design.response.target_y;
+    double error = INFINITY;
+    for (int push = 0; push <= max_goal_pushes_; ++push) {
+      const ObjectFeatures* object = findObject(scene, design.response.object);
+      if (!object) break;
+      error = std::hypot(object->position.x - design.response.target_x, object->position.y - design.response.target_y);
+      if (error < goal_tolerance_ || push == max_goal_pushes_) break;
+      ChoosePush choose;
+      choose.request.scene = scene;
+      choose.request.object = design.response.object;
+      choose.request.target_x = design.response.target_x;
+      choose.request.target_y = design.response.target_y;
+      why = call(nodeHandle(), "goal_design/choose_push", choose);
+      if (!why.empty()) break;
+      ExperimentRecord record;
+      runExperiment(choose.response.experiment, "goal", context, record);
+      ++record_goal.request.pushes;
+      if (record.status == "done") {
+        RecordExperiment store;
+        store.request.record = record;
+        store.request.record.run_id = result.run_id;
+        if (call(nodeHandle(), "knowledge_base/record_experiment", store).empty()) {
+          waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
+        }
+        scene = record.after;
+      } else if (!getScene(&scene, &why)) {
+        break;
+      }
+      if (context.stopRequested()) break;
+    }
+    record_goal.request.reached = error < goal_tolerance_;
+    record_goal.request.final_error = std::isfinite(error) ? error : 999.0;  // never seen again
+    call(nodeHandle(), "knowledge_base/record_goal", record_goal);
+    if (record_goal.request.reached) ++result.goals_reached;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      progress_.last = "goal " + std::to_string(g + 1) + ": " + design.response.object + " to (" +
+                       literalNumber(design.response.target_x) + ", " + literalNumber(design.response.target_y) + "): " +
+                       (record_goal.request.reached ? "reached" : "missed") + ", " + literalNumber(error) + " m off";
+    }
+    publishProgress(&context);
+  }
+  finish("finished");
+  result.message = "run " + std::to_string(result.run_id) + ": " + std::to_string(result.experiments_done) +
+                   " experiments done, " + std::to_string(result.experiments_failed) + " failed, " +
+                   std::to_string(result.goals_reached) + " of " + std::to_string(result.goals_tried) + " goals reached";
+  return CommandOutcome::succeeded(result.message);
+}
+
+}  // namespace xpersif

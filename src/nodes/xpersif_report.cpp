@@ -1,0 +1,202 @@
+// xpersif_report: what a run of the default experiment learned, from the knowledge base alone. ROS-free.
+//
+//   xpersif_report --database FILE --out DIR [--evaluation NAME] [--designs NAME,NAME...] [--goals NAME]
+//
+// Writes DIR/report.md (also printed), DIR/learning_curve.csv and DIR/learning_curve.png: the prediction
+// error on the evaluation run's experiments against the number of experiments learned from, for each design
+// run (the latest run of each name), the experiments each design needed to reach the error random design ends
+// with, the notions learned, and the goal-directed pushes' success.
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "xpersif/core/evaluation.h"
+
+using namespace xpersif::core;
+
+namespace {
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+void plot(const std::vector<LearningCurve>& curves, const std::string& path) {
+  const int w = 720, h = 440, left = 70, right = 20, top = 30, bottom = 50;
+  cv::Mat image(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  double max_error = 0;
+  int max_k = 1;
+  for (const auto& c : curves) {
+    for (double e : c.error) max_error = std::max(max_error, std::isfinite(e) ? e : 0.0);
+    for (int k : c.experiments) max_k = std::max(max_k, k);
+  }
+  max_error = max_error > 0 ? max_error * 1.1 : 1;
+  auto px = [&](int k) { return left + static_cast<int>((w - left - right) * k / static_cast<double>(max_k)); };
+  auto py = [&](double e) { return h - bottom - static_cast<int>((h - top - bottom) * e / max_error); };
+  cv::line(image, {left, h - bottom}, {w - right, h - bottom}, cv::Scalar(0, 0, 0));
+  cv::line(image, {left, top}, {left, h - bottom}, cv::Scalar(0, 0, 0));
+  for (int i = 0; i <= 4; ++i) {
+    const double e = max_error * i / 4;
+    std::ostringstream label;
+    label << std::fixed << std::setprecision(3) << e;
+    cv::putText(image, label.str(), {5, py(e) + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
+  }
+  cv::putText(image, "experiments learned from", {w / 2 - 90, h - 12}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
+  cv::putText(image, "RMS prediction error on the evaluation pushes (m)", {left, 18}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
+              cv::Scalar(0, 0, 0));
+  for (int k = 0; k <= max_k; k += std::max(1, max_k / 10)) {
+    cv::putText(image, std::to_string(k), {px(k) - 5, h - bottom + 16}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
+  }
+  const std::vector<cv::Scalar> colours = {{200, 80, 0}, {0, 0, 200}, {0, 150, 0}, {150, 0, 150}};
+  for (std::size_t c = 0; c < curves.size(); ++c) {
+    const auto& curve = curves[c];
+    const cv::Scalar colour = colours[c % colours.size()];
+    for (std::size_t i = 1; i < curve.error.size(); ++i) {
+      cv::line(image, {px(curve.experiments[i - 1]), py(curve.error[i - 1])}, {px(curve.experiments[i]), py(curve.error[i])},
+               colour, 2, cv::LINE_AA);
+    }
+    cv::putText(image, curve.name, {w - right - 150, top + 20 + 18 * static_cast<int>(c)}, cv::FONT_HERSHEY_SIMPLEX,
+                0.5, colour, 1, cv::LINE_AA);
+  }
+  cv::imwrite(path, image);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string database, out = ".", evaluation_name = "evaluation", goals_name;
+  std::vector<std::string> designs = {"curiosity", "random"};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string key = argv[i], value = argv[i + 1];
+    if (key == "--database") database = value;
+    else if (key == "--out") out = value;
+    else if (key == "--evaluation") evaluation_name = value;
+    else if (key == "--designs") designs = split(value);
+    else if (key == "--goals") goals_name = value;
+    else {
+      std::cerr << "xpersif_report: unknown option " << key << "\n";
+      return 2;
+    }
+  }
+  if (database.empty()) {
+    std::cerr << "usage: xpersif_report --database FILE --out DIR [--evaluation NAME] [--designs A,B] [--goals NAME]\n";
+    return 2;
+  }
+  try {
+    auto kb = KnowledgeBase::open(database);
+    std::map<std::string, RunInfo> latest;  // by name
+    for (const auto& run : kb->runs()) latest[run.name] = run;
+    auto need = [&](const std::string& name) -> const RunInfo& {
+      auto it = latest.find(name);
+      if (it == latest.end()) throw std::runtime_error("the knowledge base " + database + " has no run called '" + name + "'");
+      return it->second;
+    };
+    std::vector<std::string> identities;
+    const auto evaluation_records = kb->experiments(need(evaluation_name).id, "done");
+    for (const auto& r : evaluation_records) {
+      for (const auto& o : r.before.objects) {
+        if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
+      }
+    }
+    std::sort(identities.begin(), identities.end());
+    const PushLearnerConfig config = loopLearnerConfig(identities);
+    const auto evaluation = pushSamples(evaluation_records);
+
+    std::ostringstream md;
+    md << std::fixed;
+    md << "# What the robot learned\n\nKnowledge base: `" << database << "`\n\n";
+    md << "Evaluation set: the " << evaluation.size() << " successful pushes of run '" << evaluation_name
+       << "' (random design); each design's model after k experiments is judged on them (RMS error, m; a turn "
+          "counts as the distance a point 2 cm from the centre travels).\n\n";
+    std::vector<LearningCurve> curves;
+    std::map<std::string, int> failed;
+    for (const auto& name : designs) {
+      const RunInfo& run = need(name);
+      const auto training = pushSamples(kb->experiments(run.id, "done"));
+      failed[name] = static_cast<int>(kb->experimentCount(run.id, "failed"));
+      std::vector<int> checkpoints;
+      for (int k = 0; k <= static_cast<int>(training.size()); ++k) checkpoints.push_back(k);
+      curves.push_back(learningCurve(name, training, evaluation, config, checkpoints));
+    }
+    md << "| experiments |";
+    for (const auto& c : curves) md << " " << c.name << " |";
+    md << "\n|---|";
+    for (std::size_t i = 0; i < curves.size(); ++i) md << "---|";
+    md << "\n";
+    std::size_t rows = 0;
+    for (const auto& c : curves) rows = std::max(rows, c.experiments.size());
+    std::ofstream csv(out + "/learning_curve.csv");
+    csv << "experiments";
+    for (const auto& c : curves) csv << "," << c.name;
+    csv << "\n";
+    for (std::size_t i = 0; i < rows; ++i) {
+      md << "| " << i << " |";
+      csv << i;
+      for (const auto& c : curves) {
+        if (i < c.error.size()) {
+          md << " " << std::setprecision(4) << c.error[i] << " |";
+          csv << "," << std::setprecision(6) << c.error[i];
+        } else {
+          md << " |";
+          csv << ",";
+        }
+      }
+      md << "\n";
+      csv << "\n";
+    }
+    plot(curves, out + "/learning_curve.png");
+    md << "\n![learning curve](learning_curve.png)\n\n";
+    for (const auto& c : curves) md << "- " << c.name << ": " << failed[c.name] << " experiments failed (not learned from)\n";
+    const auto random = std::find_if(curves.begin(), curves.end(), [](const LearningCurve& c) { return c.name == "random"; });
+    if (random != curves.end() && !random->error.empty()) {
+      const double target = random->error.back();
+      md << "\nRandom design ends at " << std::setprecision(4) << target << " m after " << random->experiments.back()
+         << " experiments.\n";
+      for (const auto& c : curves) {
+        if (c.name == "random") continue;
+        const int k = experimentsToReach(c, target);
+        md << "- " << c.name << " reaches it after " << (k < 0 ? std::string("(never)") : std::to_string(k))
+           << " experiments";
+        if (k >= 0 && random->experiments.back() > 0) {
+          md << " (" << std::setprecision(0) << 100.0 * k / random->experiments.back() << " % of random's)";
+        }
+        md << "\n";
+      }
+    }
+    const std::string notion_run = goals_name.empty() ? designs.front() : goals_name;
+    md << "\n## Notions (run '" << notion_run << "')\n\n";
+    for (const auto& n : kb->notions(need(notion_run).id)) {
+      md << "- " << n.text << " (confidence " << std::setprecision(2) << n.confidence << ", " << n.support
+         << " experiments)\n";
+    }
+    if (!goals_name.empty()) {
+      const auto goals = kb->goals(need(goals_name).id);
+      int reached = 0;
+      md << "\n## Goal-directed pushes with the learned model (run '" << goals_name << "')\n\n";
+      md << "| object | target | reached | final error (m) | pushes |\n|---|---|---|---|---|\n";
+      for (const auto& g : goals) {
+        reached += g.reached;
+        md << "| " << g.object << " | (" << std::setprecision(3) << g.target_x << ", " << g.target_y << ") | "
+           << (g.reached ? "yes" : "no") << " | " << g.final_error << " | " << g.pushes_used << " |\n";
+      }
+      md << "\nSuccess rate: " << reached << " of " << goals.size() << " goals reached within 5 cm.\n";
+    }
+    std::ofstream(out + "/report.md") << md.str();
+    std::cout << md.str();
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif_report: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,61 @@
+// The learning-curve evaluation used by the report: trained on a run's first k experiments, judged on a
+// fixed evaluation set, straight from the knowledge base's records.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "xpersif/core/evaluation.h"
+
+using namespace xpersif::core;
+
+namespace {
+
+// Synthetic pushes: blue never moves; the others move k * distance, turning with the offset.
+ExperimentRecord synthetic(std::mt19937& rng, int seq) {
+  const std::vector<std::string> objects = {"blue_cube", "green_cube", "red_cube"};
+  const std::map<std::string, double> hue = {{"blue_cube", 232}, {"green_cube", 125}, {"red_cube", 0}};
+  std::uniform_real_distribution<double> offset(-0.015, 0.015), distance(0.02, 0.08);
+  std::uniform_int_distribution<int> pick(0, 2), side(0, 3);
+  ExperimentRecord r;
+  r.seq = seq;
+  r.experiment = {objects[pick(rng)], pushSides()[side(rng)], offset(rng), distance(rng)};
+  ObjectFeatures o{r.experiment.object, 0.0, 0.0, 0.0, {{"hue", hue.at(r.experiment.object)}, {"size", 0.04}}};
+  r.before.objects = {o};
+  r.after.objects = {o};
+  const double k = r.experiment.object == "blue_cube" ? 0.0 : (r.experiment.object == "red_cube" ? 0.9 : 0.7);
+  r.outcome = Outcome{k * r.experiment.distance, 0.0, -8.0 * k * r.experiment.offset};
+  return r;
+}
+
+}  // namespace
+
+TEST(Evaluation, PushSamplesSkipFailedAndIncompleteRecords) {
+  std::mt19937 rng(1);
+  std::vector<ExperimentRecord> records = {synthetic(rng, 1), synthetic(rng, 2), synthetic(rng, 3)};
+  records[1].status = "failed";
+  records[1].outcome.reset();
+  records[2].before.objects.clear();  // the object was not seen before the push
+  const auto samples = pushSamples(records);
+  ASSERT_EQ(samples.size(), 1u);
+  EXPECT_EQ(samples[0].input.experiment.object, records[0].experiment.object);
+}
+
+TEST(Evaluation, ErrorFallsAsTheModelLearnsAndTheCurveFindsWhereItReachesAnError) {
+  std::mt19937 rng(7);
+  std::vector<ExperimentRecord> train, test;
+  for (int i = 0; i < 40; ++i) train.push_back(synthetic(rng, i + 1));
+  for (int i = 0; i < 20; ++i) test.push_back(synthetic(rng, i + 1));
+  const auto config = loopLearnerConfig({"blue_cube", "green_cube", "red_cube"});
+  const LearningCurve curve = learningCurve("random", pushSamples(train), pushSamples(test), config, {0, 5, 20, 40, 99});
+  ASSERT_EQ(curve.experiments, (std::vector<int>{0, 5, 20, 40}));  // 99 > the samples available
+  EXPECT_GT(curve.error[0], curve.error[3] * 2);
+  EXPECT_LT(curve.error[3], curve.error[1]);
+  EXPECT_EQ(experimentsToReach(curve, curve.error[3]), curve.experiments[std::distance(
+                                                           curve.error.begin(),
+                                                           std::find_if(curve.error.begin(), curve.error.end(),
+                                                                        [&](double e) { return e <= curve.error[3]; }))]);
+  EXPECT_EQ(experimentsToReach(curve, -1.0), -1);
+  // Deterministic: the same records give the same curve.
+  const LearningCurve again = learningCurve("random", pushSamples(train), pushSamples(test), config, {0, 5, 20, 40});
+  EXPECT_EQ(again.error, curve.error);
+}
