@@ -7,6 +7,7 @@
 #include <ros/ros.h>
 
 #include <cmath>
+#include <iostream>
 #include <set>
 
 #include "test_helpers.h"
@@ -350,6 +351,8 @@ TEST_F(Decision, ExecutePlanPushesTheRedCubeAndObservesBeforeAndAfter) {
   EXPECT_NEAR(find(result->observations[0]).x, -0.05, 0.006);
   EXPECT_NEAR(find(result->observations[1]).x, cube.x, 0.006);
   EXPECT_GT(result->observations[1].header.stamp, result->observations[0].header.stamp);
+  std::cout << "plan: " << planned.response.message << "; the cube moved " << cube.x + 0.05 << " m along x, "
+            << cube.y - 0.1 << " m across; " << client.getState().getText() << std::endl;
   std::lock_guard<std::mutex> lock(mutex);
   EXPECT_GE(feedback.size(), 6u);  // running + done per step
 }
@@ -479,6 +482,14 @@ TEST_F(Decision, GoalDesignRefusesWithoutAModelThenAimsItsPushesAtTheTarget) {
     const double to_target = std::atan2(choose.request.target_y - red.position.y, choose.request.target_x - red.position.x);
     EXPECT_GT(std::cos(push - to_target), std::cos(20 * M_PI / 180)) << choose.response.message;
     EXPECT_LT(choose.response.expected_error, 0.02) << choose.response.message;
+    // Where the synthetic rule (0.8 of the distance along the push) really takes the cube: near the target,
+    // which holds only if the push frame was turned by the cube's perceived yaw.
+    const double slide = 0.8 * e.distance;
+    EXPECT_LT(std::hypot(red.position.x + slide * std::cos(push) - choose.request.target_x,
+                         red.position.y + slide * std::sin(push) - choose.request.target_y),
+              0.02)
+        << choose.response.message;
+    std::cout << "choose_push: " << choose.response.message << std::endl;
     EXPECT_NEAR(e.distance, 0.1, 0.03) << choose.response.message;
   }
 
