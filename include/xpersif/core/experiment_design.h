@@ -18,14 +18,14 @@
 #include <string>
 #include <vector>
 
+// kMaxPushOffset (half the 4 cm face) and kMaxPushDistance (longest push after contact) come from here, so
+// that a translation unit may include this header and experiment.h (motivation.h, push_learner.h) together.
+#include "xpersif/core/experiment.h"
+
 namespace xpersif::core {
 
 /// The pushable faces, in the cube's frame.
 extern const std::vector<std::string> kPushSides;
-/// Half the 4 cm face: a contact point further off the centre would miss the cube.
-constexpr double kMaxPushOffset = 0.02;
-/// The longest push after contact, metres (the arena is 0.9 x 0.6 m).
-constexpr double kMaxPushDistance = 0.15;
 
 /// One designed experiment (a push). The loop turns it into its full experiment record.
 struct ExperimentChoice {

@@ -1,0 +1,70 @@
+/**
+ * @file design_of_experiments.h
+ * @brief DESIGNOFEXPERIMENTS: the operation design_experiment, which chooses the next push with one of the
+ *        designs of core/experiment_design.h (curiosity, random or grid, by the ~design parameter).
+ *
+ * The curiosity design is steered by MOTIVATION without calling it: the component keeps the latest latched
+ * Motivation message (regions + curiosity) and evaluates each candidate push locally, by the region key
+ * core::CuriosityMap::regionOf gives it ("object/side/offset_bin", with ~offset_bins equal to MOTIVATION's).
+ * A region the message does not list, or every region before the first message, counts as unexplored:
+ * optimistic curiosity (~optimistic_curiosity, 1 as in CuriosityConfig).
+ *
+ * Which objects may be pushed: the request's `reachable` list, or else the objects of the latest feature
+ * vector on ~features_topic (VISION's), always restricted to ~objects.
+ *
+ * Parameters (configure): ~design (curiosity | random | grid), ~seed (int, 1), ~objects (the four cubes),
+ * ~min_offset/~max_offset (m, +-0.02), ~min_distance/~max_distance (m, 0.01/0.15), ~grid_offsets,
+ * ~grid_distances, ~candidates (32), ~epsilon (0.1), ~offset_bins (3), ~optimistic_curiosity (1.0),
+ * ~features_topic (vision/features), ~motivation_topic (motivation/motivation). An unknown design or bad
+ * bounds make configure fail with the sentence naming the parameter. Re-configuring restarts the design
+ * from its seed.
+ */
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "xpersif/DesignExperiment.h"
+#include "xpersif/FeatureVector.h"
+#include "xpersif/Motivation.h"
+#include "xpersif/component/component.h"
+#include "xpersif/core/experiment_design.h"
+#include "xpersif/core/motivation.h"
+
+namespace xpersif {
+
+class DesignOfExperiments : public Component {
+ public:
+  DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ protected:
+  void onConfigure() override;
+  void onShutdown() override;
+
+ private:
+  /// The objects the request may push now (reachable list or what vision saw), or why there are none.
+  std::string candidates(const DesignExperiment::Request& request, std::vector<std::string>* objects) const;
+  void design(const DesignExperiment::Request& request, DesignExperiment::Response& response);
+  void onFeatures(const FeatureVector::ConstPtr& features);
+  void onMotivation(const Motivation::ConstPtr& motivation);
+
+  mutable std::mutex mutex_;
+  std::string design_name_;
+  std::unique_ptr<core::ExperimentDesign> design_;
+  std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
+  std::vector<std::string> objects_;
+  double optimistic_ = 1.0;
+  std::size_t designed_ = 0;
+  std::map<std::string, double> curiosity_;  // region key -> curiosity, from the latest Motivation
+  bool have_motivation_ = false;
+  FeatureVector::ConstPtr latest_features_;
+  std::string features_topic_;
+
+  ros::Subscriber features_sub_;
+  ros::Subscriber motivation_sub_;
+};
+
+}  // namespace xpersif

@@ -1,0 +1,81 @@
+/**
+ * @file goal_design.h
+ * @brief GOALDESIGN: in the goal-directed state, the operations design_goal (a movable object and a place to
+ *        bring it) and choose_push (the push the learned model expects to bring it closest to that place).
+ *
+ * GOALDESIGN never calls MACHINELEARNING: it keeps its own core::PushLearner, loaded (PushLearner::load, which
+ * retrains deterministically and checks the fingerprint) from every latched LearnedModel on ~model_topic, and
+ * the latest Notions on ~notions_topic.
+ *
+ * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed,
+ * chosen with a seeded generator (~seed), and a target ~min_target_distance..~max_target_distance (5-12 cm)
+ * away from it, at least ~wall_clearance (8 cm) from every wall and ~object_clearance (6 cm) from the other
+ * objects.
+ * choose_push: candidates = sides x ~offsets x ~distances plus ~random_candidates random pushes (seeded); for
+ * each, the model's mean outcome (dx, dy in the push frame) is turned into the world (the push direction is
+ * the object's perceived yaw plus the side's push angle, core::pushAngleInObject) and added to the object's
+ * position; the push whose predicted end is nearest the target wins (ties: the first candidate), with that
+ * distance as expected_error.
+ * Both refuse while no model has arrived.
+ *
+ * Parameters (configure): ~seed (1), ~objects (the four cubes), ~min_target_distance (0.05),
+ * ~max_target_distance (0.12), ~wall_clearance (0.08), ~object_clearance (0.06), ~offsets ([-0.015, -0.0075, 0,
+ * 0.0075, 0.015]), ~distances ([0.02, 0.04, ..., 0.14]), ~random_candidates (64), ~model_topic
+ * (machine_learning/model), ~notions_topic (machine_learning/notions); the arena from the `world` file.
+ */
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "xpersif/ChoosePush.h"
+#include "xpersif/DesignGoal.h"
+#include "xpersif/LearnedModel.h"
+#include "xpersif/Notions.h"
+#include "xpersif/component/component.h"
+#include "xpersif/core/motion.h"
+#include "xpersif/core/push_learner.h"
+
+namespace xpersif {
+
+/// Where the object's centre ends, in the world, when it moves by @p outcome (push frame) after a push on
+/// @p side while its perceived pose is @p object.
+core::Pose2D predictedEnd(const core::ObjectFeatures& object, const std::string& side, const core::Outcome& outcome);
+
+class GoalDesign : public Component {
+ public:
+  GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ protected:
+  void onConfigure() override;
+  void onShutdown() override;
+
+ private:
+  void onModel(const LearnedModel::ConstPtr& model);
+  void onNotions(const Notions::ConstPtr& notions);
+  std::string whyNoModel() const;
+  void designGoal(const DesignGoal::Request& request, DesignGoal::Response& response);
+  void choosePush(const ChoosePush::Request& request, ChoosePush::Response& response);
+
+  mutable std::mutex mutex_;
+  std::vector<std::string> objects_;
+  double min_target_ = 0.05, max_target_ = 0.12, wall_clearance_ = 0.08, object_clearance_ = 0.06;
+  std::vector<double> offsets_, distances_;
+  int random_candidates_ = 64;
+  core::ArenaGeometry arena_;
+  std::mt19937_64 rng_;
+  std::unique_ptr<core::PushLearner> learner_;
+  std::uint64_t model_run_ = 0;
+  std::string model_topic_;
+  std::string model_problem_;  // why the last model could not be loaded
+  std::set<std::string> immobile_;  // objects whose notion says does_not_move_when_pushed
+
+  ros::Subscriber model_sub_;
+  ros::Subscriber notions_sub_;
+};
+
+}  // namespace xpersif

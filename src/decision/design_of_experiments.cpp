@@ -1,0 +1,177 @@
+#include "xpersif/decision/design_of_experiments.h"
+
+#include <algorithm>
+#include <set>
+
+#include "xpersif/decision/decision_common.h"
+
+namespace xpersif {
+
+namespace {
+const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
+}
+
+DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/DesignOfExperimentsNodelet") {
+  core::Contract declared;
+  declared.name = "design_experiment";
+  declared.kind = core::Contract::Kind::Operation;
+  declared.interface_type = "xpersif/DesignExperiment";
+  declared.description = "the next push experiment, by the configured design (curiosity, random or grid)";
+  declared.parameters = {"?reachable"};
+  declared.preconditions = {
+      {"known_objects(?reachable)", "every object listed as reachable must be one of ~objects"},
+      {"some_reachable(?reachable)", "at least one object must be reachable (listed, or seen by vision)"}};
+  declared.effects = {"designed(experiment)"};
+  ContractChecker<DesignExperiment::Request> contract(declared);
+  contract
+      .bind([](const DesignExperiment::Request& r) {
+        return core::Bindings{{"?reachable", r.reachable.empty() ? "seen" : joinNames(r.reachable)}};
+      })
+      .check("known_objects(?reachable)",
+             [this](const DesignExperiment::Request& r) {
+               std::lock_guard<std::mutex> lock(mutex_);
+               for (const auto& name : r.reachable) {
+                 const std::string why = core::checkKnownName("reachable", name, objects_);
+                 if (!why.empty()) return why;
+               }
+               return std::string();
+             })
+      .check("some_reachable(?reachable)", [this](const DesignExperiment::Request& r) {
+        std::vector<std::string> objects;
+        return candidates(r, &objects);
+      });
+  addOperation<DesignExperiment>(
+      contract, [](const DesignExperiment::Request& r) { core::requireMaxSize("reachable", r.reachable.size(), 64); },
+      [this](const DesignExperiment::Request& request, DesignExperiment::Response& response) {
+        design(request, response);
+      });
+}
+
+void DesignOfExperiments::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  std::string design = "curiosity", features_topic = "vision/features", motivation_topic = "motivation/motivation";
+  int seed = 1, candidates = 32, offset_bins = 3;
+  double optimistic = 1.0;
+  std::vector<std::string> objects = kDefaultObjects;
+  core::DesignOptions options;
+  pnh.param("design", design, design);
+  pnh.param("seed", seed, seed);
+  pnh.param("objects", objects, objects);
+  pnh.param("min_offset", options.min_offset, options.min_offset);
+  pnh.param("max_offset", options.max_offset, options.max_offset);
+  pnh.param("min_distance", options.min_distance, options.min_distance);
+  pnh.param("max_distance", options.max_distance, options.max_distance);
+  pnh.param("grid_offsets", options.grid_offsets, options.grid_offsets);
+  pnh.param("grid_distances", options.grid_distances, options.grid_distances);
+  pnh.param("candidates", candidates, candidates);
+  pnh.param("epsilon", options.epsilon, options.epsilon);
+  pnh.param("offset_bins", offset_bins, offset_bins);
+  pnh.param("optimistic_curiosity", optimistic, optimistic);
+  pnh.param("features_topic", features_topic, features_topic);
+  pnh.param("motivation_topic", motivation_topic, motivation_topic);
+  core::requireInRange("~seed", seed, 0, 2147483647.0);
+  core::requireInRange("~candidates", candidates, 1, 10000);
+  core::requireFinite("~optimistic_curiosity", optimistic);
+  options.candidates = static_cast<std::size_t>(candidates);
+  const std::vector<std::string> names = core::designNames();
+  if (std::find(names.begin(), names.end(), design) == names.end()) {
+    throw core::ValidationError("~design is '" + design + "', not one of " + joinNames(names));
+  }
+  auto made = core::makeDesign(design, static_cast<unsigned long>(seed), options);  // throws for bad options
+  core::CuriosityConfig regions;
+  regions.objects = objects;
+  regions.offset_bins = offset_bins;
+  auto map = std::make_unique<core::CuriosityMap>(regions);  // throws for bad objects or bins
+
+  // Resubscribe outside the lock (a callback may hold it).
+  features_sub_.shutdown();
+  motivation_sub_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    design_name_ = design;
+    design_ = std::move(made);
+    regions_ = std::move(map);
+    objects_ = objects;
+    optimistic_ = optimistic;
+    designed_ = 0;
+    curiosity_.clear();
+    have_motivation_ = false;
+    latest_features_.reset();
+    features_topic_ = nodeHandle().resolveName(features_topic);
+  }
+  features_sub_ = nodeHandle().subscribe<FeatureVector>(features_topic, 2, &DesignOfExperiments::onFeatures, this);
+  motivation_sub_ = nodeHandle().subscribe<Motivation>(motivation_topic, 2, &DesignOfExperiments::onMotivation, this);
+}
+
+void DesignOfExperiments::onShutdown() {
+  features_sub_.shutdown();
+  motivation_sub_.shutdown();
+}
+
+void DesignOfExperiments::onFeatures(const FeatureVector::ConstPtr& features) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  latest_features_ = features;
+}
+
+void DesignOfExperiments::onMotivation(const Motivation::ConstPtr& motivation) {
+  std::map<std::string, double> curiosity;
+  const std::size_t n = std::min(motivation->regions.size(), motivation->curiosity.size());
+  for (std::size_t i = 0; i < n; ++i) curiosity[motivation->regions[i]] = motivation->curiosity[i];
+  std::lock_guard<std::mutex> lock(mutex_);
+  curiosity_ = std::move(curiosity);
+  have_motivation_ = true;
+}
+
+std::string DesignOfExperiments::candidates(const DesignExperiment::Request& request,
+                                            std::vector<std::string>* objects) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  objects->clear();
+  if (!request.reachable.empty()) {
+    for (const auto& name : request.reachable) {
+      if (std::find(objects_.begin(), objects_.end(), name) != objects_.end()) objects->push_back(name);
+    }
+    return objects->empty() ? "none of the listed objects is one of ~objects " + joinNames(objects_) : "";
+  }
+  if (!latest_features_) {
+    return "the request lists no reachable object and no feature vector has arrived on " +
+           features_topic_ + " yet";
+  }
+  for (const auto& o : latest_features_->objects) {
+    if (std::find(objects_.begin(), objects_.end(), o.name) != objects_.end()) objects->push_back(o.name);
+  }
+  return objects->empty() ? "the latest feature vector shows none of ~objects " + joinNames(objects_) : "";
+}
+
+void DesignOfExperiments::design(const DesignExperiment::Request& request, DesignExperiment::Response& response) {
+  std::vector<std::string> reachable;
+  const std::string why = candidates(request, &reachable);
+  if (!why.empty()) throw core::ValidationError(why);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!design_) throw std::runtime_error("not configured");
+  core::DesignContext context;
+  const std::set<std::string> can(reachable.begin(), reachable.end());
+  for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0});
+  context.history_count = designed_;
+  // Curiosity of a candidate: MOTIVATION's value for its region, optimistic where it has none.
+  context.curiosity = [this](const core::ExperimentChoice& c) {
+    const core::RegionKey key = regions_->regionOf(core::Experiment{c.object, c.side, c.offset, c.distance});
+    const auto found = curiosity_.find(key.toString());
+    return found == curiosity_.end() ? optimistic_ : found->second;
+  };
+  const core::ExperimentChoice choice = design_->next(context);
+  ++designed_;
+  response.experiment = toExperimentMsg(core::Experiment{choice.object, choice.side, choice.offset, choice.distance});
+  response.design = design_name_;
+  response.rationale = choice.rationale;
+  if (design_name_ == "curiosity") {
+    const core::RegionKey key = regions_->regionOf(toCoreExperiment(response.experiment));
+    const auto found = curiosity_.find(key.toString());
+    response.rationale += "; region " + key.toString() + " curiosity " +
+                          core::describeNumber(found == curiosity_.end() ? optimistic_ : found->second) +
+                          (have_motivation_ ? "" : " (no motivation yet: every region unexplored)");
+  }
+  response.message = choice.toString();
+}
+
+}  // namespace xpersif

@@ -1,0 +1,255 @@
+#include "xpersif/decision/goal_design.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "xpersif/decision/decision_common.h"
+#include "xpersif/embodiment/embodiment_setup.h"
+
+namespace xpersif {
+
+namespace {
+const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
+
+std::string checkScene(const FeatureVector& scene) {
+  std::string why = core::checkMaxSize("scene.objects", scene.objects.size(), core::kMaxObjectsPerFeatureVector);
+  for (std::size_t i = 0; why.empty() && i < scene.objects.size(); ++i) {
+    const auto& o = scene.objects[i];
+    const std::string field = "scene.objects[" + std::to_string(i) + "]";
+    why = core::checkAllFinite(field + " pose", {o.position.x, o.position.y, o.yaw});
+    if (why.empty()) why = core::checkAllFinite(field + ".feature_values", o.feature_values);
+  }
+  return why;
+}
+}  // namespace
+
+core::Pose2D predictedEnd(const core::ObjectFeatures& object, const std::string& side, const core::Outcome& outcome) {
+  const double direction = object.yaw + core::pushAngleInObject(side);
+  const double c = std::cos(direction), s = std::sin(direction);
+  return {object.x + c * outcome.dx - s * outcome.dy, object.y + s * outcome.dx + c * outcome.dy,
+          core::normalizeAngle(object.yaw + outcome.dyaw)};
+}
+
+GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/GoalDesignNodelet") {
+  // ---- design_goal -------------------------------------------------------------------------------------
+  core::Contract goal;
+  goal.name = "design_goal";
+  goal.kind = core::Contract::Kind::Operation;
+  goal.interface_type = "xpersif/DesignGoal";
+  goal.description = "a goal to reach with what has been learned: a movable object and a target 5-12 cm away";
+  goal.preconditions = {{"learned(model)", "MACHINELEARNING must have published a model"},
+                        {"valid(scene)", "the scene must be finite numbers"}};
+  goal.effects = {"designed(goal)"};
+  ContractChecker<DesignGoal::Request> goal_contract(goal);
+  goal_contract.check("learned(model)", [this](const DesignGoal::Request&) { return whyNoModel(); })
+      .check("valid(scene)", [](const DesignGoal::Request& r) { return checkScene(r.scene); });
+  addOperation<DesignGoal>(
+      goal_contract, nullptr,
+      [this](const DesignGoal::Request& request, DesignGoal::Response& response) { designGoal(request, response); });
+
+  // ---- choose_push -------------------------------------------------------------------------------------
+  core::Contract choose;
+  choose.name = "choose_push";
+  choose.kind = core::Contract::Kind::Operation;
+  choose.interface_type = "xpersif/ChoosePush";
+  choose.description = "the push the learned model expects to bring the object closest to the target";
+  choose.parameters = {"?object"};
+  choose.preconditions = {{"learned(model)", "MACHINELEARNING must have published a model"},
+                          {"valid(scene)", "the scene must be finite numbers"},
+                          {"in_scene(?object)", "the object must be in the scene"},
+                          {"finite(target)", "the target must be finite numbers"}};
+  choose.effects = {"chosen(?object)"};
+  ContractChecker<ChoosePush::Request> choose_contract(choose);
+  choose_contract.bind([](const ChoosePush::Request& r) { return core::Bindings{{"?object", r.object}}; })
+      .check("learned(model)", [this](const ChoosePush::Request&) { return whyNoModel(); })
+      .check("valid(scene)", [](const ChoosePush::Request& r) { return checkScene(r.scene); })
+      .check("in_scene(?object)",
+             [](const ChoosePush::Request& r) {
+               return findObject(r.scene, r.object) ? std::string()
+                                                    : "the scene has no object named '" + r.object + "'";
+             })
+      .check("finite(target)",
+             [](const ChoosePush::Request& r) { return core::checkAllFinite("target", {r.target_x, r.target_y}); });
+  addOperation<ChoosePush>(
+      choose_contract, nullptr,
+      [this](const ChoosePush::Request& request, ChoosePush::Response& response) { choosePush(request, response); });
+}
+
+void GoalDesign::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  int seed = 1, random_candidates = 64;
+  std::vector<std::string> objects = kDefaultObjects;
+  double min_target = 0.05, max_target = 0.12, wall_clearance = 0.08, object_clearance = 0.06;
+  std::vector<double> offsets{-0.015, -0.0075, 0.0, 0.0075, 0.015};
+  std::vector<double> distances{0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14};
+  std::string model_topic = "machine_learning/model", notions_topic = "machine_learning/notions";
+  pnh.param("seed", seed, seed);
+  pnh.param("objects", objects, objects);
+  pnh.param("min_target_distance", min_target, min_target);
+  pnh.param("max_target_distance", max_target, max_target);
+  pnh.param("wall_clearance", wall_clearance, wall_clearance);
+  pnh.param("object_clearance", object_clearance, object_clearance);
+  pnh.param("offsets", offsets, offsets);
+  pnh.param("distances", distances, distances);
+  pnh.param("random_candidates", random_candidates, random_candidates);
+  pnh.param("model_topic", model_topic, model_topic);
+  pnh.param("notions_topic", notions_topic, notions_topic);
+  core::requireInRange("~seed", seed, 0, 2147483647.0);
+  core::requireInRange("~random_candidates", random_candidates, 0, 100000);
+  core::requireInRange("~min_target_distance", min_target, 0.001, 1.0);
+  core::requireInRange("~max_target_distance", max_target, min_target, 1.0);
+  core::requireInRange("~wall_clearance", wall_clearance, 0.0, 1.0);
+  core::requireInRange("~object_clearance", object_clearance, 0.0, 1.0);
+  if (objects.empty()) throw core::ValidationError("~objects is empty; list the objects goals may use");
+  for (double o : offsets) core::requireInRange("~offsets entry", o, -core::kMaxPushOffset, core::kMaxPushOffset);
+  for (double d : distances) core::requireInRange("~distances entry", d, 1e-3, core::kMaxPushDistance);
+  if (offsets.empty() && distances.empty() && random_candidates == 0) {
+    throw core::ValidationError("~offsets, ~distances and ~random_candidates leave no candidate push");
+  }
+  const EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  model_sub_.shutdown();  // outside the lock: a callback may hold it
+  notions_sub_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    objects_ = objects;
+    min_target_ = min_target;
+    max_target_ = max_target;
+    wall_clearance_ = wall_clearance;
+    object_clearance_ = object_clearance;
+    offsets_ = offsets;
+    distances_ = distances;
+    random_candidates_ = random_candidates;
+    arena_ = setup.arena;
+    rng_.seed(static_cast<std::uint64_t>(seed));
+    learner_.reset();
+    model_problem_.clear();
+    immobile_.clear();
+    model_topic_ = nodeHandle().resolveName(model_topic);
+  }
+  model_sub_ = nodeHandle().subscribe<LearnedModel>(model_topic, 1, &GoalDesign::onModel, this);
+  notions_sub_ = nodeHandle().subscribe<Notions>(notions_topic, 1, &GoalDesign::onNotions, this);
+}
+
+void GoalDesign::onShutdown() {
+  model_sub_.shutdown();
+  notions_sub_.shutdown();
+}
+
+void GoalDesign::onModel(const LearnedModel::ConstPtr& model) {
+  // Load outside the lock (it retrains): operations keep answering with the previous model meanwhile.
+  auto learner = std::make_unique<core::PushLearner>();
+  std::string problem;
+  if (model->format != core::PushLearner::kFormat) {
+    problem = "the model's format is '" + model->format + "', not '" + core::PushLearner::kFormat + "'";
+  } else {
+    try {
+      learner->load(model->data);
+    } catch (const std::exception& e) {
+      problem = std::string("the model could not be loaded: ") + e.what();
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  model_problem_ = problem;
+  if (!problem.empty()) {
+    ROS_WARN_STREAM(name() << ": " << problem);
+    return;
+  }
+  learner_ = std::move(learner);
+  model_run_ = model->run_id;
+}
+
+void GoalDesign::onNotions(const Notions::ConstPtr& notions) {
+  std::set<std::string> immobile;
+  for (const auto& n : notions->notions) {
+    if (n.predicate == "does_not_move_when_pushed") immobile.insert(n.subject);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  immobile_ = std::move(immobile);
+}
+
+std::string GoalDesign::whyNoModel() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (learner_) return "";
+  return "no learned model has arrived on " + model_topic_ + " yet" +
+         (model_problem_.empty() ? "" : " (" + model_problem_ + ")");
+}
+
+void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<const ObjectFeatures*> movable;
+  std::vector<std::string> skipped;
+  for (const auto& o : request.scene.objects) {
+    if (std::find(objects_.begin(), objects_.end(), o.name) == objects_.end()) continue;
+    if (immobile_.count(o.name)) {
+      skipped.push_back(o.name);
+      continue;
+    }
+    movable.push_back(&o);
+  }
+  if (movable.empty()) {
+    throw std::runtime_error("no movable object in the scene (of ~objects " + joinNames(objects_) + "; " +
+                             joinNames(skipped) + " do not move when pushed)");
+  }
+  std::shuffle(movable.begin(), movable.end(), rng_);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI), distance(min_target_, max_target_);
+  const double half_x = arena_.size_x / 2 - wall_clearance_, half_y = arena_.size_y / 2 - wall_clearance_;
+  for (const ObjectFeatures* object : movable) {
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      const double a = angle(rng_), d = distance(rng_);
+      const double x = object->position.x + d * std::cos(a), y = object->position.y + d * std::sin(a);
+      if (std::abs(x) > half_x || std::abs(y) > half_y) continue;
+      const bool crowded = std::any_of(request.scene.objects.begin(), request.scene.objects.end(), [&](const auto& o) {
+        return &o != object && std::hypot(o.position.x - x, o.position.y - y) < object_clearance_;
+      });
+      if (crowded) continue;
+      response.object = object->name;
+      response.target_x = x;
+      response.target_y = y;
+      response.message = "bring " + object->name + " " + core::describeNumber(d) + " m to (" +
+                         core::describeNumber(x) + ", " + core::describeNumber(y) + ")" +
+                         (skipped.empty() ? "" : "; not " + joinNames(skipped) + ": they do not move when pushed");
+      return;
+    }
+  }
+  throw std::runtime_error("no target " + core::describeNumber(min_target_) + "-" + core::describeNumber(max_target_) +
+                           " m from a movable object lies " + core::describeNumber(wall_clearance_) +
+                           " m inside the walls and away from the other objects");
+}
+
+void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!learner_) throw std::runtime_error("no model");
+  const core::ObjectFeatures object = toCoreObject(*findObject(request.scene, request.object));
+  std::vector<core::Experiment> candidates;
+  for (const auto& side : core::pushSides()) {
+    for (double offset : offsets_) {
+      for (double distance : distances_) candidates.push_back({request.object, side, offset, distance});
+    }
+  }
+  std::uniform_int_distribution<std::size_t> side(0, core::pushSides().size() - 1);
+  std::uniform_real_distribution<double> offset(-0.015, 0.015), distance(0.01, core::kMaxPushDistance);
+  for (int i = 0; i < random_candidates_; ++i) {
+    const std::string& s = core::pushSides()[side(rng_)];
+    const double o = offset(rng_);
+    candidates.push_back({request.object, s, o, distance(rng_)});
+  }
+  double best = INFINITY;
+  for (const auto& c : candidates) {
+    const core::Prediction p = learner_->predict(core::PushInput{c, object});  // throws: missing features etc.
+    const core::Pose2D end = predictedEnd(object, c.side, p.mean);
+    const double error = std::hypot(end.x - request.target_x, end.y - request.target_y);
+    if (error < best) {
+      best = error;
+      response.experiment = toExperimentMsg(c);
+    }
+  }
+  response.expected_error = best;
+  response.message = "push " + request.object + " on " + response.experiment.side + ", offset " +
+                     core::describeNumber(response.experiment.offset) + " m, distance " +
+                     core::describeNumber(response.experiment.distance) + " m: expected " +
+                     core::describeNumber(best) + " m from the target (" + std::to_string(candidates.size()) +
+                     " candidates, model of " + std::to_string(learner_->sampleCount()) + " samples)";
+}
+
+}  // namespace xpersif
