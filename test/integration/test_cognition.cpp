@@ -16,6 +16,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <optional>
 
 #include "test_helpers.h"
 #include "xpersif/FinishRun.h"
@@ -28,7 +29,9 @@
 #include "xpersif/Predict.h"
 #include "xpersif/RecordExperiment.h"
 #include "xpersif/StartRun.h"
+#include "xpersif/core/knowledge_base.h"
 #include "xpersif/core/motivation.h"
+#include "xpersif/core/push_learner.h"
 
 using xpersif::ComponentStatus;
 using xpersif::ExperimentRecord;
@@ -176,6 +179,7 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
   Recorder<Notions> notions(nh_, "/machine_learning/notions");
   Recorder<Motivation> motivations(nh_, "/motivation/motivation");
   ASSERT_TRUE(loadNodelet("/loop_manager", "/machine_learning", "xpersif/MachineLearningNodelet"));
+  ASSERT_TRUE(loadNodelet("/loop_manager", "/motivation", "xpersif/MotivationNodelet"));
   for (const char* component : {"/knowledge_base", "/machine_learning", "/motivation"}) {
     ASSERT_TRUE(waitFor([&] { return stateOf(component) == ComponentStatus::ACTIVE; }, 60.0)) << component;
   }
@@ -299,6 +303,23 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
       30.0))
       << kb_notions.response.message;
 
+  // ---- the KB stored the latest model MACHINELEARNING published (read from the database file itself) ----
+  std::string database;
+  ASSERT_TRUE(ros::param::get("/knowledge_base/database", database));
+  {
+    auto kb = xpersif::core::KnowledgeBase::open(database);
+    std::optional<xpersif::core::ModelRecord> model;
+    EXPECT_TRUE(waitFor(
+        [&] {
+          model = kb->latestModel(static_cast<std::int64_t>(run), "push_learner");
+          return model && model->sample_count == kPushes;
+        },
+        30.0));
+    ASSERT_TRUE(model.has_value());
+    EXPECT_EQ(model->format, xpersif::core::PushLearner::kFormat);
+    EXPECT_EQ(model->blob, models.messages().back().data);
+  }
+
   // ---- motivation after every experiment: surprise as the record says, curiosity per region ----
   Motivation motivation;
   ASSERT_TRUE(motivations.waitForMatch([&](const Motivation& m) { return m.run_id == run && m.experiments == kPushes; },
@@ -400,6 +421,31 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
   ASSERT_TRUE(next_response.success) << next_response.message;
   EXPECT_TRUE(models.waitForMatch([&](const LearnedModel& m) { return m.run_id == run && m.samples == kPushes + 1; },
                                   60.0));
+
+  // ---- MOTIVATION reloaded: it replays the run's records and has the same curiosity as before ----
+  Motivation before_motivation;
+  ASSERT_TRUE(motivations.waitForMatch([&](const Motivation& m) { return m.run_id == run && m.experiments == kPushes; },
+                                       30.0, &before_motivation));
+  const std::size_t motivations_before = motivations.messages().size();
+  ASSERT_TRUE(reloadNodelet("/loop_manager", "/motivation", "xpersif/MotivationNodelet"));
+  Motivation restored;
+  EXPECT_TRUE(waitFor(
+      [&] {
+        const auto all = motivations.messages();
+        for (std::size_t k = motivations_before; k < all.size(); ++k) {
+          if (all[k].run_id == run && all[k].experiments == kPushes) {
+            restored = all[k];
+            return true;
+          }
+        }
+        return false;
+      },
+      60.0));
+  EXPECT_EQ(restored.regions, before_motivation.regions);
+  EXPECT_EQ(restored.curiosity, before_motivation.curiosity);
+  EXPECT_EQ(restored.visits, before_motivation.visits);
+  EXPECT_EQ(restored.most_curious, before_motivation.most_curious);
+  EXPECT_DOUBLE_EQ(restored.surprise, before_motivation.surprise);
 
   // ---- finishing the run: nothing more can be added to it ----
   xpersif::FinishRun finish;
