@@ -146,8 +146,7 @@ void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRe
     if (!sampleOf(record, &sample).empty()) continue;
     // Validate one by one so that one bad record does not lose the others.
     try {
-      core::PushLearner probe(config);
-      probe.encode(sample.input);
+      learner->encode(sample.input);  // validates without training
       core::requireOutcome("outcome", sample.outcome);
       samples.push_back(sample);
     } catch (const std::exception& e) {
