@@ -1,0 +1,80 @@
+/**
+ * @file knowledge_base.h
+ * @brief KNOWLEDGEBASE: the loop's memory as a component — runs, experiments, models, notions and goals in one
+ *        SQLite file (core::KnowledgeBase), so that nothing committed is lost and a run can be resumed.
+ *
+ * It lives alone in kb_manager, so that any component may call its operations, even blocking, from anywhere.
+ *
+ * Operations (all need ACTIVE; bad input is refused with one sentence and writes nothing):
+ *  - `start_run` (StartRun): resume=true returns the latest run still marked running with its count of done
+ *    experiments; otherwise (or when there is none) a new run. Either way it becomes the CURRENT run, announced
+ *    latched on `~run` (std_msgs/UInt64).
+ *  - `finish_run` (FinishRun): mark a run (0: the current one) finished or stopped.
+ *  - `record_experiment` (RecordExperiment): validate (every number finite, sizes within the caps, status done
+ *    or failed, a failed one says why), commit in one transaction, then publish the stored record (id, seq
+ *    set) on `~experiments` (not latched, queue 100). run_id 0 means the current run.
+ *  - `get_experiments` (GetExperiments): a run's records in seq order, optionally of one status.
+ *  - `record_goal` (RecordGoal), `get_notions` (GetNotions).
+ * It stores what MACHINELEARNING publishes: the models on `~model_topic` (default machine_learning/model) and
+ * the notions on `~notions_topic` (machine_learning/notions), for the run each names.
+ *
+ * Parameters (configure): `~database` (default `$ROS_HOME/xpersif/knowledge.db`, ROS_HOME defaulting to
+ * ~/.ros; missing directories are created; a file that is not an XPERSIF knowledge base fails the configure
+ * with the reason), `~model_topic`, `~notions_topic`.
+ *
+ * Not kept: the record's `design` is published with the record but not stored (the core schema has no column
+ * for it), so get_experiments returns it empty.
+ */
+#pragma once
+
+#include <memory>
+#include <mutex>
+
+#include "xpersif/FinishRun.h"
+#include "xpersif/GetExperiments.h"
+#include "xpersif/GetNotions.h"
+#include "xpersif/LearnedModel.h"
+#include "xpersif/Notions.h"
+#include "xpersif/RecordExperiment.h"
+#include "xpersif/RecordGoal.h"
+#include "xpersif/StartRun.h"
+#include "xpersif/component/component.h"
+#include "xpersif/core/knowledge_base.h"
+
+namespace xpersif {
+
+class KnowledgeBaseComponent : public Component {
+ public:
+  KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+  /// The default database file: $ROS_HOME (or ~/.ros) /xpersif/knowledge.db.
+  static std::string defaultDatabasePath();
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+
+ private:
+  /// The open store, or throws when not configured.
+  std::shared_ptr<core::KnowledgeBase> store() const;
+  /// @p run_id, or the current run for 0 (throws when there is none).
+  std::int64_t resolveRun(std::uint64_t run_id) const;
+  /// "" when the run (0: current) exists [and is running], else why not.
+  std::string checkRun(std::uint64_t run_id, bool must_run) const;
+  void announceRun(std::int64_t run_id);
+  void onModel(const LearnedModel::ConstPtr& model);
+  void onNotions(const Notions::ConstPtr& notions);
+
+  mutable std::mutex mutex_;
+  std::shared_ptr<core::KnowledgeBase> kb_;
+  std::int64_t current_run_ = 0;
+  std::string model_topic_ = "machine_learning/model", notions_topic_ = "machine_learning/notions";
+
+  // ROS handles last.
+  ros::Publisher experiments_pub_, run_pub_;
+  ros::Subscriber model_sub_, notions_sub_;
+};
+
+}  // namespace xpersif

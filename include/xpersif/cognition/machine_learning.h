@@ -1,0 +1,72 @@
+/**
+ * @file machine_learning.h
+ * @brief MACHINELEARNING: learns from every stored push how objects move when pushed (core::PushLearner) and
+ *        what that means in words (core::deriveNotions); predicts the outcome of a push.
+ *
+ * It follows the KNOWLEDGEBASE's `experiments` (see experiment_follower.h): each DONE record of the current run
+ * becomes a sample — input: the experiment and the pushed object as the record's `before` vector saw it (name,
+ * pose, and the features named in `~features`); outcome: the record's dx, dy, dyaw. A record whose `before`
+ * lacks the object or a feature is skipped with a warning. After every sample, and after a restore, it
+ * publishes latched `~model` (LearnedModel: run_id, samples, format core::PushLearner::kFormat, data =
+ * save()) and latched `~notions` (Notions). With `~restore` (default true) it rebuilds itself from the KB's
+ * get_experiments of the current run when activated, when a new run is announced, when a record of another
+ * run arrives, or when it notices a lost record — so a restarted MACHINELEARNING goes on where it stopped.
+ *
+ * The learner's input: push direction, offset, distance, the object's `hue` and `size` (VISION's colour and
+ * edge length: objects that look alike are expected to move alike, so what is learned about one cube carries
+ * over to a similar one), and a one-hot code of the object's identity over `~identities` (the four cubes by
+ * default), because cubes of the same look may differ in mass and friction, which no camera sees.
+ *
+ * Operation `predict` (Predict): the predicted dx, dy, dyaw (mean and std) of a push of an object with the
+ * given features, and how many samples the model has.
+ *
+ * Parameters (configure): `~features` ([hue, size]), `~feature_scales` (dict, default {hue: 30, size: 0.01}),
+ * `~one_hot_identity` (true), `~identities` ([red_cube, green_cube, blue_cube, yellow_cube]), `~seed` (1),
+ * `~ensemble_size` (8), `~trees_per_member` (16), `~restore` (true), `~restore_timeout` (30 s),
+ * `~experiments_topic` (knowledge_base/experiments), `~run_topic` (knowledge_base/run), `~knowledge_base`
+ * (knowledge_base: the namespace of its operations).
+ */
+#pragma once
+
+#include <memory>
+#include <mutex>
+
+#include "xpersif/LearnedModel.h"
+#include "xpersif/Notions.h"
+#include "xpersif/Predict.h"
+#include "xpersif/cognition/experiment_follower.h"
+#include "xpersif/component/component.h"
+#include "xpersif/core/push_learner.h"
+
+namespace xpersif {
+
+class MachineLearning : public Component {
+ public:
+  MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~MachineLearning() override;
+
+  /// The sample a done record gives, or why it gives none.
+  static std::string sampleOf(const ExperimentRecord& record, core::PushSample* sample);
+
+ protected:
+  void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
+  void onShutdown() override;
+
+ private:
+  void reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records);
+  void add(const ExperimentRecord& record);
+  void publish();
+
+  std::mutex mutex_;  // guards learner_, run_id_
+  core::PushLearnerConfig config_;
+  std::unique_ptr<core::PushLearner> learner_;
+  std::uint64_t run_id_ = 0;
+  ExperimentFollower::Options follow_;
+
+  std::unique_ptr<ExperimentFollower> follower_;  // before the publishers: its thread publishes
+  ros::Publisher model_pub_, notions_pub_;
+};
+
+}  // namespace xpersif

@@ -1,0 +1,307 @@
+#include "xpersif/cognition/knowledge_base.h"
+
+#include <std_msgs/UInt64.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+
+#include "xpersif/cognition/conversions.h"
+
+namespace xpersif {
+
+namespace {
+constexpr std::size_t kMaxNotions = 1000;
+
+core::Contract operation(const std::string& name, const std::string& type, const std::string& description) {
+  core::Contract c;
+  c.name = name;
+  c.kind = core::Contract::Kind::Operation;
+  c.interface_type = type;
+  c.description = description;
+  return c;
+}
+
+std::string runText(std::uint64_t run_id) { return run_id == 0 ? std::string("current") : std::to_string(run_id); }
+}  // namespace
+
+std::string KnowledgeBaseComponent::defaultDatabasePath() {
+  const char* ros_home = std::getenv("ROS_HOME");
+  std::string base;
+  if (ros_home && *ros_home) {
+    base = ros_home;
+  } else {
+    const char* home = std::getenv("HOME");
+    base = std::string(home && *home ? home : ".") + "/.ros";
+  }
+  return base + "/xpersif/knowledge.db";
+}
+
+KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/KnowledgeBaseNodelet") {
+  // ---- start_run -------------------------------------------------------------------------------------
+  core::Contract start = operation("start_run", "xpersif/StartRun",
+                                   "start a run (or resume the latest one still running); it becomes the current run");
+  start.parameters = {"?name"};
+  start.effects = {"running(current_run)"};
+  ContractChecker<StartRun::Request> start_contract(start);
+  start_contract.bind([](const StartRun::Request& r) { return core::Bindings{{"?name", r.name}}; });
+  addOperation<StartRun>(
+      start_contract,
+      [](const StartRun::Request& r) {
+        core::throwIfInvalid(core::checkMaxLength("name", r.name, core::KnowledgeBase::kMaxTextLength));
+        if (r.name.empty()) throw core::ValidationError("name is empty; a run needs a name");
+        core::throwIfInvalid(core::checkMaxLength("design", r.design, core::kMaxNameLength));
+        if (r.seed > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+          throw core::ValidationError("seed " + std::to_string(r.seed) + " is larger than 2^63 - 1");
+        }
+      },
+      [this](const StartRun::Request& r, StartRun::Response& response) {
+        auto kb = store();
+        std::optional<core::RunInfo> run;
+        if (r.resume) run = kb->findResumableRun();
+        response.resumed = run.has_value();
+        if (!run) {
+          run = kb->createRun(r.name, r.parameters.empty() ? "{}" : r.parameters, static_cast<std::int64_t>(r.seed),
+                              r.design);
+        }
+        response.run_id = static_cast<std::uint64_t>(run->id);
+        response.experiments_done = static_cast<std::uint32_t>(kb->experimentCount(run->id, "done"));
+        response.message = (response.resumed ? "resumed run " : "started run ") + std::to_string(run->id) + " (" +
+                           run->name + ")";
+        announceRun(run->id);
+      });
+
+  // ---- finish_run ------------------------------------------------------------------------------------
+  core::Contract finish = operation("finish_run", "xpersif/FinishRun", "mark a run finished or stopped");
+  finish.parameters = {"?run", "?status"};
+  finish.preconditions = {{"running(?run)", "the run must exist and still be running"}};
+  finish.effects = {"not running(?run)", "ended(?run, ?status)"};
+  ContractChecker<FinishRun::Request> finish_contract(finish);
+  finish_contract
+      .bind([](const FinishRun::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}, {"?status", r.status}}; })
+      .check("running(?run)", [this](const FinishRun::Request& r) { return checkRun(r.run_id, true); });
+  addOperation<FinishRun>(
+      finish_contract,
+      [](const FinishRun::Request& r) { core::requireOneOf("status", r.status, {"finished", "stopped"}); },
+      [this](const FinishRun::Request& r, FinishRun::Response& response) {
+        const std::int64_t run = resolveRun(r.run_id);
+        store()->finishRun(run, r.status);
+        response.message = "run " + std::to_string(run) + " " + r.status;
+      });
+
+  // ---- record_experiment -----------------------------------------------------------------------------
+  core::Contract record = operation("record_experiment", "xpersif/RecordExperiment",
+                                    "store an experiment in one transaction, then publish it on ~experiments");
+  record.parameters = {"?run", "?object", "?side"};
+  record.preconditions = {{"running(?run)", "the experiment's run (0: the current one) must be running"}};
+  record.effects = {"recorded(?run, ?object, ?side)"};
+  ContractChecker<RecordExperiment::Request> record_contract(record);
+  record_contract
+      .bind([](const RecordExperiment::Request& r) {
+        return core::Bindings{{"?run", runText(r.record.run_id)},
+                              {"?object", r.record.experiment.object},
+                              {"?side", r.record.experiment.side}};
+      })
+      .check("running(?run)", [this](const RecordExperiment::Request& r) { return checkRun(r.record.run_id, true); });
+  addOperation<RecordExperiment>(
+      record_contract, [](const RecordExperiment::Request& r) { fromMsg(r.record); },
+      [this](const RecordExperiment::Request& r, RecordExperiment::Response& response) {
+        core::ExperimentRecord input = fromMsg(r.record);
+        input.run_id = resolveRun(r.record.run_id);
+        const core::ExperimentRecord stored = store()->recordExperiment(input);
+        ExperimentRecord published = toMsg(stored);
+        // The stored form, so that followers see live exactly what get_experiments gives them on a restore.
+        published.design = r.record.design;
+        response.id = published.id;
+        response.seq = published.seq;
+        response.message = "stored experiment " + std::to_string(stored.seq) + " of run " + std::to_string(stored.run_id);
+        experiments_pub_.publish(published);
+      });
+
+  // ---- get_experiments -------------------------------------------------------------------------------
+  core::Contract get = operation("get_experiments", "xpersif/GetExperiments", "a run's experiments in seq order");
+  get.parameters = {"?run"};
+  get.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  get.effects = {"known(experiments, ?run)"};
+  ContractChecker<GetExperiments::Request> get_contract(get);
+  get_contract.bind([](const GetExperiments::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const GetExperiments::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<GetExperiments>(
+      get_contract,
+      [](const GetExperiments::Request& r) { core::requireOneOf("status", r.status, {"", "done", "failed"}); },
+      [this](const GetExperiments::Request& r, GetExperiments::Response& response) {
+        const std::int64_t run = resolveRun(r.run_id);
+        for (const auto& e : store()->experiments(run, r.status)) response.experiments.push_back(toMsg(e));
+        response.message = std::to_string(response.experiments.size()) + " experiments of run " + std::to_string(run);
+      });
+
+  // ---- record_goal -----------------------------------------------------------------------------------
+  core::Contract goal = operation("record_goal", "xpersif/RecordGoal", "store the outcome of a goal-directed episode");
+  goal.parameters = {"?run", "?object"};
+  goal.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  goal.effects = {"goal_recorded(?run, ?object)"};
+  ContractChecker<RecordGoal::Request> goal_contract(goal);
+  goal_contract
+      .bind([](const RecordGoal::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}, {"?object", r.object}}; })
+      .check("exists(?run)", [this](const RecordGoal::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<RecordGoal>(
+      goal_contract,
+      [](const RecordGoal::Request& r) {
+        core::requireIdentifier("object", r.object, core::kMaxNameLength);
+        core::requireFinite("target_x", r.target_x);
+        core::requireFinite("target_y", r.target_y);
+        core::requireInRange("final_error", r.final_error, 0.0, 1e6);
+      },
+      [this](const RecordGoal::Request& r, RecordGoal::Response& response) {
+        core::GoalRecord g;
+        g.run_id = resolveRun(r.run_id);
+        g.object = r.object;
+        g.target_x = r.target_x;
+        g.target_y = r.target_y;
+        g.reached = r.reached;
+        g.final_error = r.final_error;
+        g.pushes_used = static_cast<int>(std::min<std::uint32_t>(r.pushes, 1u << 30));
+        const core::GoalRecord stored = store()->recordGoal(g);
+        response.message = "stored goal " + std::to_string(stored.id) + " of run " + std::to_string(stored.run_id);
+      });
+
+  // ---- get_notions -----------------------------------------------------------------------------------
+  core::Contract notions = operation("get_notions", "xpersif/GetNotions", "the notions learned in a run");
+  notions.parameters = {"?run"};
+  notions.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  notions.effects = {"known(notions, ?run)"};
+  ContractChecker<GetNotions::Request> notions_contract(notions);
+  notions_contract.bind([](const GetNotions::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const GetNotions::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<GetNotions>(notions_contract, nullptr,
+                           [this](const GetNotions::Request& r, GetNotions::Response& response) {
+                             const std::int64_t run = resolveRun(r.run_id);
+                             for (const auto& n : store()->notions(run)) response.notions.push_back(toMsg(n));
+                             response.message = std::to_string(response.notions.size()) + " notions of run " +
+                                                std::to_string(run);
+                           });
+}
+
+void KnowledgeBaseComponent::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  std::string path = defaultDatabasePath(), model_topic = "machine_learning/model",
+              notions_topic = "machine_learning/notions";
+  pnh.param("database", path, path);
+  pnh.param("model_topic", model_topic, model_topic);
+  pnh.param("notions_topic", notions_topic, notions_topic);
+  if (path.empty()) throw core::ValidationError("~database is empty; give a file path (or :memory:)");
+  if (path != ":memory:") {
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    std::error_code error;
+    if (!parent.empty()) std::filesystem::create_directories(parent, error);
+    if (error) {
+      throw std::runtime_error("~database: cannot create the directory " + parent.string() + ": " + error.message());
+    }
+  }
+  std::shared_ptr<core::KnowledgeBase> kb;
+  try {
+    kb = core::KnowledgeBase::open(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("~database " + path + " cannot be used: " + e.what());
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    kb_ = std::move(kb);
+    current_run_ = 0;
+    model_topic_ = model_topic;
+    notions_topic_ = notions_topic;
+    if (!experiments_pub_) {
+      experiments_pub_ = privateNodeHandle().advertise<ExperimentRecord>("experiments", 100);
+      run_pub_ = privateNodeHandle().advertise<std_msgs::UInt64>("run", 1, true);
+    }
+  }
+  ROS_INFO("%s: knowledge base %s", name().c_str(), path.c_str());
+}
+
+void KnowledgeBaseComponent::onActivate() {
+  std::string model_topic, notions_topic;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    model_topic = model_topic_;
+    notions_topic = notions_topic_;
+  }
+  model_sub_ = nodeHandle().subscribe<LearnedModel>(model_topic, 10, [this](const LearnedModel::ConstPtr& m) { onModel(m); });
+  notions_sub_ = nodeHandle().subscribe<Notions>(notions_topic, 10, [this](const Notions::ConstPtr& n) { onNotions(n); });
+}
+
+void KnowledgeBaseComponent::onDeactivate() {
+  model_sub_.shutdown();
+  notions_sub_.shutdown();
+}
+
+void KnowledgeBaseComponent::onShutdown() {
+  onDeactivate();
+  std::lock_guard<std::mutex> lock(mutex_);
+  kb_.reset();
+  current_run_ = 0;
+}
+
+std::shared_ptr<core::KnowledgeBase> KnowledgeBaseComponent::store() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!kb_) throw std::runtime_error("the knowledge base is not configured");
+  return kb_;
+}
+
+std::int64_t KnowledgeBaseComponent::resolveRun(std::uint64_t run_id) const {
+  if (run_id != 0) return static_cast<std::int64_t>(run_id);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (current_run_ == 0) throw core::ValidationError("run_id is 0 (the current run) but no run has been started; call start_run first");
+  return current_run_;
+}
+
+std::string KnowledgeBaseComponent::checkRun(std::uint64_t run_id, bool must_run) const {
+  try {
+    if (run_id > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+      return "run_id " + std::to_string(run_id) + " is not a run of this knowledge base";
+    }
+    const std::int64_t run = resolveRun(run_id);
+    const auto info = store()->run(run);
+    if (!info) return "run " + std::to_string(run) + " is not a run of this knowledge base";
+    if (must_run && info->status != "running") return "run " + std::to_string(run) + " is " + info->status;
+    return "";
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
+void KnowledgeBaseComponent::announceRun(std::int64_t run_id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    current_run_ = run_id;
+  }
+  std_msgs::UInt64 message;
+  message.data = static_cast<std::uint64_t>(run_id);
+  run_pub_.publish(message);
+}
+
+void KnowledgeBaseComponent::onModel(const LearnedModel::ConstPtr& model) {
+  if (model->run_id == 0 || model->data.empty()) return;  // no run yet, or nothing learned
+  try {
+    store()->storeModel(static_cast<std::int64_t>(model->run_id), "push_learner", model->format, model->data,
+                        model->samples);
+  } catch (const std::exception& e) {
+    ROS_WARN("%s: did not store the model of run %lu: %s", name().c_str(), static_cast<unsigned long>(model->run_id),
+             e.what());
+  }
+}
+
+void KnowledgeBaseComponent::onNotions(const Notions::ConstPtr& notions) {
+  if (notions->run_id == 0) return;
+  try {
+    core::throwIfInvalid(core::checkMaxSize("notions", notions->notions.size(), kMaxNotions));
+    std::vector<core::Notion> converted;
+    for (const auto& n : notions->notions) converted.push_back(fromMsg(n));
+    store()->replaceNotions(static_cast<std::int64_t>(notions->run_id), converted);
+  } catch (const std::exception& e) {
+    ROS_WARN("%s: did not store the notions of run %lu: %s", name().c_str(),
+             static_cast<unsigned long>(notions->run_id), e.what());
+  }
+}
+
+}  // namespace xpersif

@@ -1,0 +1,203 @@
+#include "xpersif/cognition/machine_learning.h"
+
+#include <algorithm>
+
+#include "xpersif/cognition/conversions.h"
+
+namespace xpersif {
+
+namespace {
+const std::vector<std::string> kDefaultIdentities{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
+
+core::Bindings pushBindings(const Experiment& e) {
+  return {{"?object", e.object},
+          {"?side", e.side},
+          {"?offset", core::describeNumber(e.offset)},
+          {"?distance", core::describeNumber(e.distance)}};
+}
+}  // namespace
+
+std::string MachineLearning::sampleOf(const ExperimentRecord& record, core::PushSample* sample) {
+  if (record.status != "done") return "its status is " + record.status;
+  const ObjectFeatures* object = nullptr;
+  for (const auto& o : record.before.objects) {
+    if (o.name == record.experiment.object) object = &o;
+  }
+  if (!object) return "its 'before' vector does not contain the pushed object " + record.experiment.object;
+  sample->input.experiment = fromMsg(record.experiment);
+  sample->input.object = fromMsg(*object);
+  sample->outcome = {record.dx, record.dy, record.dyaw};
+  return "";
+}
+
+MachineLearning::MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : Component(std::move(nh), std::move(private_nh), "xpersif/MachineLearningNodelet") {
+  core::Contract predict;
+  predict.name = "predict";
+  predict.kind = core::Contract::Kind::Operation;
+  predict.interface_type = "xpersif/Predict";
+  predict.description = "the predicted motion (dx, dy, dyaw in the push frame; mean and std) of a push";
+  predict.parameters = {"?object", "?side", "?offset", "?distance"};
+  predict.preconditions = {
+      {"described(?object)", "the object's features must name the pushed object and carry every feature the model uses"}};
+  predict.effects = {"predicted(?object, ?side, ?offset, ?distance)"};
+  ContractChecker<Predict::Request> contract(predict);
+  contract.bind([](const Predict::Request& r) { return pushBindings(r.experiment); })
+      .check("described(?object)", [this](const Predict::Request& r) {
+        if (r.object.name != r.experiment.object) {
+          return "object.name '" + r.object.name + "' is not the pushed object '" + r.experiment.object + "'";
+        }
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (const auto& feature : config_.feature_names) {
+          if (std::find(r.object.feature_names.begin(), r.object.feature_names.end(), feature) ==
+              r.object.feature_names.end()) {
+            return "object.feature_names lacks '" + feature + "', an input of the model";
+          }
+        }
+        return std::string();
+      });
+  addOperation<Predict>(
+      contract,
+      [](const Predict::Request& r) {
+        core::requireExperiment("experiment", fromMsg(r.experiment));
+        core::throwIfInvalid(checkObjectFeatures("object", r.object));
+      },
+      [this](const Predict::Request& r, Predict::Response& response) {
+        core::PushInput input{fromMsg(r.experiment), fromMsg(r.object)};
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!learner_) throw std::runtime_error("the model is not configured");
+        const core::Prediction p = learner_->predict(input);
+        response.mean = {p.mean.dx, p.mean.dy, p.mean.dyaw};
+        response.std = {p.std.dx, p.std.dy, p.std.dyaw};
+        response.samples = static_cast<std::uint32_t>(learner_->sampleCount());
+        response.message = "from " + std::to_string(response.samples) + " samples";
+      });
+}
+
+MachineLearning::~MachineLearning() {
+  // The follower's thread calls back into this object: stop it while the object is whole.
+  if (follower_) follower_->stop();
+}
+
+void MachineLearning::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  core::PushLearnerConfig config;
+  config.one_hot_identity = true;
+  config.identities = kDefaultIdentities;
+  pnh.param("features", config.feature_names, config.feature_names);
+  std::map<std::string, double> scales;
+  if (pnh.getParam("feature_scales", scales)) config.feature_scales = scales;
+  pnh.param("one_hot_identity", config.one_hot_identity, config.one_hot_identity);
+  pnh.param("identities", config.identities, config.identities);
+  int seed = 1;
+  pnh.param("seed", seed, seed);
+  pnh.param("ensemble_size", config.ensemble_size, config.ensemble_size);
+  pnh.param("trees_per_member", config.trees_per_member, config.trees_per_member);
+  core::requireInRange("~seed", seed, 0, 2147483647.0);
+  core::requireInRange("~ensemble_size", config.ensemble_size, 1, 256);
+  core::requireInRange("~trees_per_member", config.trees_per_member, 1, 1024);
+  core::requireMaxSize("~features", config.feature_names.size(), core::kMaxExtraFeatures);
+  config.seed = static_cast<std::uint64_t>(seed);
+  auto learner = std::make_unique<core::PushLearner>(config);  // throws with the reason for a bad config
+
+  const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    config_ = config;
+    learner_ = std::move(learner);
+    run_id_ = 0;
+    follow_ = follow;
+    if (!model_pub_) {
+      model_pub_ = pnh.advertise<LearnedModel>("model", 1, true);
+      notions_pub_ = pnh.advertise<Notions>("notions", 1, true);
+    }
+  }
+}
+
+void MachineLearning::onActivate() {
+  if (follower_) follower_->stop();
+  follower_ = std::make_unique<ExperimentFollower>(
+      nodeHandle(), follow_, [this](std::uint64_t run, const std::vector<ExperimentRecord>& records) { reset(run, records); },
+      [this](const ExperimentRecord& record) { add(record); });
+  follower_->start();
+}
+
+void MachineLearning::onDeactivate() {
+  if (follower_) follower_->stop();
+}
+
+void MachineLearning::onShutdown() {
+  if (follower_) follower_->stop();
+  follower_.reset();
+  std::lock_guard<std::mutex> lock(mutex_);
+  learner_.reset();
+}
+
+void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
+  core::PushLearnerConfig config;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    config = config_;
+  }
+  std::vector<core::PushSample> samples;
+  auto learner = std::make_unique<core::PushLearner>(config);
+  for (const auto& record : records) {
+    core::PushSample sample;
+    if (!sampleOf(record, &sample).empty()) continue;
+    // Validate one by one so that one bad record does not lose the others.
+    try {
+      learner->encode(sample.input);  // validates without training
+      core::requireOutcome("outcome", sample.outcome);
+      samples.push_back(sample);
+    } catch (const std::exception& e) {
+      ROS_WARN("%s: skipping experiment %u of run %lu: %s", name().c_str(), record.seq,
+               static_cast<unsigned long>(record.run_id), e.what());
+    }
+  }
+  learner->addSamples(samples);  // trained once, outside the lock: predict goes on meanwhile
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    learner_ = std::move(learner);
+    run_id_ = run_id;
+  }
+  publish();
+}
+
+void MachineLearning::add(const ExperimentRecord& record) {
+  core::PushSample sample;
+  const std::string why = sampleOf(record, &sample);
+  if (!why.empty()) {
+    ROS_DEBUG("%s: experiment %u is no sample: %s", name().c_str(), record.seq, why.c_str());
+    return;
+  }
+  try {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!learner_) return;
+    learner_->addSample(sample.input, sample.outcome);
+    run_id_ = record.run_id;
+  } catch (const std::exception& e) {
+    ROS_WARN("%s: skipping experiment %u of run %lu: %s", name().c_str(), record.seq,
+             static_cast<unsigned long>(record.run_id), e.what());
+    return;
+  }
+  publish();
+}
+
+void MachineLearning::publish() {
+  auto model = boost::make_shared<LearnedModel>();
+  auto notions = boost::make_shared<Notions>();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!learner_) return;
+    model->header.stamp = notions->header.stamp = ros::Time::now();
+    model->run_id = notions->run_id = run_id_;
+    model->samples = notions->samples = static_cast<std::uint32_t>(learner_->sampleCount());
+    model->format = core::PushLearner::kFormat;
+    model->data = learner_->save();
+    for (const auto& n : core::deriveNotions(learner_->samples())) notions->notions.push_back(toMsg(n));
+  }
+  model_pub_.publish(model);
+  notions_pub_.publish(notions);
+}
+
+}  // namespace xpersif

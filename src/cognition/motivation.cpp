@@ -1,0 +1,193 @@
+#include "xpersif/cognition/motivation.h"
+
+#include "xpersif/cognition/conversions.h"
+
+namespace xpersif {
+
+namespace {
+const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
+}  // namespace
+
+// ---- surprise -------------------------------------------------------------------------------------------
+
+void SurprisePart::configure(const ros::NodeHandle& parameters) {
+  double yaw_length = 0.02;
+  parameters.param("yaw_length", yaw_length, yaw_length);
+  core::requireInRange(parameters.getNamespace() + "/yaw_length", yaw_length, 1e-4, 1.0);
+  yaw_length_ = yaw_length;
+}
+
+std::optional<core::Surprise> SurprisePart::score(const ExperimentRecord& record) const {
+  if (record.status != "done" || record.predicted_mean.size() != 3 || record.predicted_std.size() != 3) {
+    return std::nullopt;
+  }
+  const core::Prediction prediction{{record.predicted_mean[0], record.predicted_mean[1], record.predicted_mean[2]},
+                                    {record.predicted_std[0], record.predicted_std[1], record.predicted_std[2]}};
+  return core::surprise(prediction, {record.dx, record.dy, record.dyaw}, yaw_length_);
+}
+
+// ---- curiosity ------------------------------------------------------------------------------------------
+
+void CuriosityPart::configure(const ros::NodeHandle& parameters) {
+  core::CuriosityConfig config;
+  config.objects = objects_;
+  int bins = config.offset_bins, window = static_cast<int>(config.window), min_visits = static_cast<int>(config.min_visits);
+  std::string measure = "error";
+  parameters.param("offset_bins", bins, bins);
+  parameters.param("window", window, window);
+  parameters.param("min_visits", min_visits, min_visits);
+  parameters.param("measure", measure, measure);
+  const std::string ns = parameters.getNamespace();
+  core::requireInRange(ns + "/offset_bins", bins, 1, 100);
+  core::requireInRange(ns + "/window", window, 1, 1000);
+  core::requireInRange(ns + "/min_visits", min_visits, 0, 1000);
+  core::requireOneOf(ns + "/measure", measure, {"error", "normalized"});
+  config.offset_bins = bins;
+  config.window = static_cast<std::size_t>(window);
+  config.min_visits = static_cast<std::size_t>(min_visits);
+  auto map = std::make_unique<core::CuriosityMap>(config);  // throws with the reason (e.g. no objects)
+  config_ = config;
+  normalized_ = measure == "normalized";
+  map_ = std::move(map);
+}
+
+void CuriosityPart::reset() {
+  if (map_) map_ = std::make_unique<core::CuriosityMap>(config_);
+}
+
+bool CuriosityPart::record(const Experiment& experiment, const core::Surprise& surprise, std::string* why) {
+  if (!map_) {
+    *why = "the curiosity map is not configured";
+    return false;
+  }
+  try {
+    map_->record(fromMsg(experiment), normalized_ ? surprise.normalized : surprise.error);
+    return true;
+  } catch (const std::exception& e) {
+    *why = e.what();
+    return false;
+  }
+}
+
+void CuriosityPart::fill(Motivation& message) const {
+  if (!map_) return;
+  for (const auto& region : map_->regions()) {
+    message.regions.push_back(region.key.toString());
+    message.curiosity.push_back(region.curiosity);
+    message.learning_progress.push_back(region.progress);
+    message.visits.push_back(static_cast<std::uint32_t>(region.count));
+  }
+  message.most_curious = map_->mostCurious().toString();
+}
+
+// ---- the aggregate --------------------------------------------------------------------------------------
+
+MotivationComponent::MotivationComponent(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : AggregateComponent(std::move(nh), std::move(private_nh), "xpersif/MotivationNodelet"),
+      surprise_(addPart<SurprisePart>()),
+      curiosity_(addPart<CuriosityPart>()) {}
+
+MotivationComponent::~MotivationComponent() {
+  if (follower_) follower_->stop();
+}
+
+void MotivationComponent::onConfigure() {
+  ros::NodeHandle& pnh = privateNodeHandle();
+  std::vector<std::string> objects = kDefaultObjects;
+  pnh.param("objects", objects, objects);
+  core::requireMaxSize("~objects", objects.size(), 64);
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    core::requireIdentifier("~objects[" + std::to_string(i) + "]", objects[i], core::kMaxNameLength);
+  }
+  const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    curiosity_.setObjects(objects);
+    follow_ = follow;
+    run_id_ = 0;
+    scored_ = 0;
+    last_ = core::Surprise();
+    if (!motivation_pub_) motivation_pub_ = pnh.advertise<Motivation>("motivation", 1, true);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  AggregateComponent::onConfigure();
+}
+
+void MotivationComponent::onActivate() {
+  AggregateComponent::onActivate();
+  if (follower_) follower_->stop();
+  follower_ = std::make_unique<ExperimentFollower>(
+      nodeHandle(), follow_, [this](std::uint64_t run, const std::vector<ExperimentRecord>& records) { reset(run, records); },
+      [this](const ExperimentRecord& record) { add(record); });
+  follower_->start();
+}
+
+void MotivationComponent::onDeactivate() {
+  if (follower_) follower_->stop();
+  AggregateComponent::onDeactivate();
+}
+
+void MotivationComponent::onShutdown() {
+  if (follower_) follower_->stop();
+  follower_.reset();
+  std::lock_guard<std::mutex> lock(mutex_);
+  AggregateComponent::onShutdown();
+}
+
+bool MotivationComponent::take(const ExperimentRecord& record) {
+  std::optional<core::Surprise> s;
+  try {
+    s = surprise_.score(record);
+  } catch (const std::exception& e) {
+    ROS_WARN("%s: experiment %u of run %lu has no valid prediction: %s", name().c_str(), record.seq,
+             static_cast<unsigned long>(record.run_id), e.what());
+    return false;
+  }
+  if (!s) return false;
+  std::string why;
+  if (!curiosity_.record(record.experiment, *s, &why)) {
+    ROS_WARN("%s: experiment %u of run %lu is outside the curiosity map: %s", name().c_str(), record.seq,
+             static_cast<unsigned long>(record.run_id), why.c_str());
+    return false;
+  }
+  last_ = *s;
+  ++scored_;
+  return true;
+}
+
+void MotivationComponent::reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    curiosity_.reset();
+    run_id_ = run_id;
+    scored_ = 0;
+    last_ = core::Surprise();
+    for (const auto& record : records) take(record);
+  }
+  publish();
+}
+
+void MotivationComponent::add(const ExperimentRecord& record) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    run_id_ = record.run_id;
+    if (!take(record)) return;
+  }
+  publish();
+}
+
+void MotivationComponent::publish() {
+  auto message = boost::make_shared<Motivation>();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    message->header.stamp = ros::Time::now();
+    message->run_id = run_id_;
+    message->experiments = scored_;
+    message->surprise = last_.error;
+    message->normalized_surprise = last_.normalized;
+    curiosity_.fill(*message);
+  }
+  motivation_pub_.publish(message);
+}
+
+}  // namespace xpersif
