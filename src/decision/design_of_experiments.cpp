@@ -42,7 +42,11 @@ DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle pri
         return candidates(r, &objects);
       });
   addOperation<DesignExperiment>(
-      contract, [](const DesignExperiment::Request& r) { core::requireMaxSize("reachable", r.reachable.size(), 64); },
+      contract,
+      [](const DesignExperiment::Request& r) {
+        core::requireMaxSize("reachable", r.reachable.size(), 64);
+        if (!r.design.empty()) core::requireOneOf("design", r.design, core::designNames());
+      },
       [this](const DesignExperiment::Request& request, DesignExperiment::Response& response) {
         design(request, response);
       });
@@ -91,6 +95,8 @@ void DesignOfExperiments::onConfigure() {
     std::lock_guard<std::mutex> lock(mutex_);
     design_name_ = design;
     design_ = std::move(made);
+    seed_ = static_cast<unsigned long>(seed);
+    options_ = options;
     regions_ = std::move(map);
     objects_ = objects;
     optimistic_ = optimistic;
@@ -149,6 +155,12 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   if (!why.empty()) throw core::ValidationError(why);
   std::lock_guard<std::mutex> lock(mutex_);
   if (!design_) throw std::runtime_error("not configured");
+  // A run may ask for another design than ~design (LOOPMODEL passes the run's): switch, seeded as configured.
+  if (!request.design.empty() && request.design != design_name_) {
+    design_ = core::makeDesign(request.design, seed_, options_);
+    design_name_ = request.design;
+    designed_ = 0;
+  }
   core::DesignContext context;
   const std::set<std::string> can(reachable.begin(), reachable.end());
   for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0});

@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
         if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
       }
     }
-    std::sort(identities.begin(), identities.end());
+    // In the order the scene lists them (the world file's), as MACHINELEARNING's one-hot code has them.
     const PushLearnerConfig config = loopLearnerConfig(identities);
     const auto evaluation = pushSamples(evaluation_records);
 

@@ -53,6 +53,8 @@ class DesignOfExperiments : public Component {
 
   mutable std::mutex mutex_;
   std::string design_name_;
+  unsigned long seed_ = 1;
+  core::DesignOptions options_;
   std::unique_ptr<core::ExperimentDesign> design_;
   std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
   std::vector<std::string> objects_;
