@@ -749,6 +749,7 @@ void PushController::start(const PushPlan& plan, const std::vector<Pose2D>& appr
                             {"plan.retreat", plan.retreat}}) {
     throwIfInvalid(checkPose(name, pose));
   }
+  blocked_ = false;
   std::vector<Pose2D> path = approach_path;
   for (std::size_t i = 0; i < path.size(); ++i) {
     throwIfInvalid(checkPose("approach_path[" + std::to_string(i) + "]", path[i]));
@@ -894,6 +895,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
       fb = PushFeedback{};
       fb.phase = phase_;
       fb.done = true;
+      fb.blocked = blocked_;
       fb.progress = 1.0;
       fb.pushed = pushed;
       return fb;
@@ -907,8 +909,17 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
     since_progress_ += dt;
   }
   if (options_.stall_time > 0 && since_progress_ > options_.stall_time) {
-    return fail("no progress along the push line for " + num(options_.stall_time) +
-                " s: the object or something else blocks the robot, or its wheels slip");
+    if (phase_ != PushPhase::Push) {
+      return fail("no progress along the push line for " + num(options_.stall_time) +
+                  " s: something blocks the robot, or its wheels slip");
+    }
+    // The object resists (too heavy, or held): that is an outcome, not a failure. Back off from here.
+    blocked_ = true;
+    const double from = std::max(0.0, pushed) - back;
+    plan_.retreat = {plan_.contact.x + from * dx, plan_.contact.y + from * dy, plan_.direction};
+    phase_ = PushPhase::Retreat;
+    best_along_ = -std::numeric_limits<double>::infinity();
+    since_progress_ = 0;
   }
   fb.phase = phase_;
   fb.pushed = std::max(0.0, pushed);

@@ -210,6 +210,8 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   }
   core::PushController controller(limits);
   controller.start(plan, path.waypoints);
+  bool blocked = false;
+  double pushed = 0;
   ros::Time last = ros::Time::now();
   core::Pose2D pose;
   while (true) {
@@ -234,7 +236,11 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
       publishVelocity({});
       return CommandOutcome::aborted(result.message = "push failed: " + fb.reason);
     }
-    if (fb.done) break;
+    if (fb.done) {
+      blocked = fb.blocked;
+      pushed = fb.pushed;
+      break;
+    }
     PushFeedback feedback;
     feedback.phase = core::toString(fb.phase);
     feedback.progress = fb.progress;
@@ -263,6 +269,7 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   }
   result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
                    " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
+                   (blocked ? " (it resisted: the robot stalled after " + core::describeNumber(pushed) + " m and backed off)" : "") +
                    (result.observed_after ? "" : " (not seen afterwards)");
   return CommandOutcome::succeeded(result.message);
 }

@@ -333,6 +333,12 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
                            ", " + literalNumber(experiment.distance) + ")",
                        "observed(scene)"};
   std::string why = call(nodeHandle(), "planner/make_plan", plan);
+  // Right after start-up the PLANNER may still be reading the components' contracts: give it time.
+  const ros::WallTime patience = ros::WallTime::now() + ros::WallDuration(60.0);
+  while (why.find("contracts_loaded") != std::string::npos && ros::WallTime::now() < patience && !context.stopRequested()) {
+    ros::WallDuration(0.2).sleep();
+    why = call(nodeHandle(), "planner/make_plan", plan);
+  }
   if (!why.empty()) return fail("no plan: " + why);
 
   actionlib::SimpleActionClient<ExecutePlanAction> execution(nodeHandle(), "execution/execute_plan", false);

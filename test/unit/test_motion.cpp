@@ -481,3 +481,26 @@ TEST(Controllers, FailWithAReasonWhenTheRobotMakesNoProgress) {
   EXPECT_NEAR(t, 1.0, 0.05);
   EXPECT_NE(pf.reason.find("timeout of 1 s"), std::string::npos) << pf.reason;
 }
+
+TEST(Push, AnObjectThatResistsEndsThePushBlockedAndTheRobotBacksOff) {
+  // A kinematic robot that moves as commanded until it reaches the face plus 1 cm: there the object stops it.
+  PushPlan plan = planPush({"blue_cube", 0.0, 0.0, 0.0, 0.04}, {"blue_cube", "-x", 0.0, 0.08}, kRobotRadius,
+                           {0.9, 0.6}, {});
+  ASSERT_TRUE(plan.ok) << plan.reason;
+  PushControlOptions options;
+  options.stall_time = 1.0;
+  PushController push(MotionLimits{}, options);
+  push.start(plan);
+  Pose2D pose = plan.approach;
+  const double wall_x = plan.contact.x + 0.01;
+  PushFeedback fb;
+  for (double t = 0; t < 60.0 && !fb.done && !fb.failed; t += kControlPeriod) {
+    fb = push.update(pose, kControlPeriod);
+    pose.yaw += fb.command.angular * kControlPeriod;
+    pose.x = std::min(wall_x, pose.x + std::cos(pose.yaw) * fb.command.linear * kControlPeriod);
+    pose.y += std::sin(pose.yaw) * fb.command.linear * kControlPeriod;
+  }
+  ASSERT_TRUE(fb.done) << fb.reason;
+  EXPECT_TRUE(fb.blocked);
+  EXPECT_LT(pose.x, wall_x - 0.03) << "the robot did not back off";
+}

@@ -313,6 +313,8 @@ struct PushFeedback {
   double pushed = 0;       ///< m driven along the push line past the contact pose (PUSH and later)
   bool done = false;       ///< phase Done
   bool failed = false;     ///< phase Failed; reason says why (and in which phase)
+  /// Done, but the object resisted: the push stalled (no progress for stall_time) and the robot backed off.
+  bool blocked = false;
   std::string reason;
 };
 
@@ -366,6 +368,7 @@ class PushController {
   PushPhase phase_ = PushPhase::Idle;
   double approach_length_ = 0, total_length_ = 0;
   double elapsed_ = 0, best_along_ = 0, since_progress_ = 0, progress_ = 0;
+  bool blocked_ = false;
   Velocity2D last_command_;
   std::string reason_;
 };
