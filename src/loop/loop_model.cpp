@@ -188,6 +188,21 @@ std::string call(ros::NodeHandle& nh, const std::string& name, Service& service)
   if (!service.response.success) return resolved + ": " + service.response.message;
   return "";
 }
+/// The same, patient with a component that is being restarted (LOOPMODEL brings it back): retries while the
+/// service is missing or the component is not ACTIVE yet, for up to @p patience seconds.
+template <class Service>
+std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service& service, double patience = 60.0) {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
+  std::string why = call(nh, name, service);
+  while (!why.empty() && ros::ok() && ros::WallTime::now() < until &&
+         (why.find("is not offered") != std::string::npos || why.find("did not answer") != std::string::npos ||
+          why.find("ACTIVE") != std::string::npos)) {
+    ros::WallDuration(0.2).sleep();
+    why = call(nh, name, service);
+  }
+  return why;
+}
+
 }  // namespace
 
 void LoopModel::setState(const std::string& state) {
@@ -373,7 +388,7 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   Predict predict;
   predict.request.experiment = experiment;
   predict.request.object = *before;
-  why = call(nodeHandle(), "machine_learning/predict", predict);
+  why = callPatiently(nodeHandle(), "machine_learning/predict", predict);
   if (!why.empty()) return fail("no prediction: " + why);
   record.predicted_mean = predict.response.mean;
   record.predicted_std = predict.response.std;
@@ -425,7 +440,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   parameters << "{\"experiments\":" << goal.experiments << ",\"goals\":" << goal.goals << ",\"design\":\"" << goal.design
              << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\"}";
   start.request.parameters = parameters.str();
-  std::string why = call(nodeHandle(), "knowledge_base/start_run", start);
+  std::string why = callPatiently(nodeHandle(), "knowledge_base/start_run", start);
   if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot start the run: " + why);
   result.run_id = start.response.run_id;
   if (arrange_at_start_ && !start.response.resumed) {
@@ -440,7 +455,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     FinishRun finish_run;
     finish_run.request.run_id = result.run_id;
     finish_run.request.status = status;
-    call(nodeHandle(), "knowledge_base/finish_run", finish_run);
+    callPatiently(nodeHandle(), "knowledge_base/finish_run", finish_run);
     setState(status);
     publishProgress(&context);
   };
@@ -487,7 +502,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     RecordExperiment store;
     store.request.record = record;
     store.request.record.run_id = result.run_id;
-    why = call(nodeHandle(), "knowledge_base/record_experiment", store);
+    why = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
     if (!why.empty()) return ended("the knowledge base refused the experiment: " + why);
     ++done;
     if (record.status == "done") {
@@ -548,7 +563,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         RecordExperiment store;
         store.request.record = record;
         store.request.record.run_id = result.run_id;
-        if (call(nodeHandle(), "knowledge_base/record_experiment", store).empty()) {
+        if (callPatiently(nodeHandle(), "knowledge_base/record_experiment", store).empty()) {
           waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
         }
         scene = record.after;
@@ -559,7 +574,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
     record_goal.request.reached = error < goal_tolerance_;
     record_goal.request.final_error = std::isfinite(error) ? error : 999.0;  // never seen again
-    call(nodeHandle(), "knowledge_base/record_goal", record_goal);
+    callPatiently(nodeHandle(), "knowledge_base/record_goal", record_goal);
     if (record_goal.request.reached) ++result.goals_reached;
     {
       std::lock_guard<std::mutex> lock(mutex_);
