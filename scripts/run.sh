@@ -9,10 +9,10 @@
 #  4. xpersif_report: notions, prediction error against the number of experiments for both designs (table
 #     and PNG), experiments curiosity needed to reach random's final error, goal success.
 # Everything goes to runs/<time>/ (report.md, learning_curve.png/.csv, knowledge.db, logs).
-#   --experiments N (default 24)  --evaluation N (12)  --goals N (5)  --seed S (1)  --keep (stay up at the end)
+#   --experiments N (default 32)  --evaluation N (16)  --goals N (5)  --seed S (1)  --keep (stay up at the end)
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-experiments=24 evaluation=12 goals=5 seed=1 keep=0
+experiments=32 evaluation=16 goals=5 seed=1 keep=0
 while (($#)); do
   case "$1" in
     --experiments) experiments=$2; shift 2 ;;

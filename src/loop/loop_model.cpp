@@ -136,9 +136,9 @@ void LoopModel::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   std::string pose_source = "observation";
-  int retries = 1, max_goal_pushes = 4;
+  int retries = 1, max_goal_pushes = 6;
   bool tidy = true;
-  double tidy_margin = 0.08, goal_tolerance = 0.05, learning_timeout = 20.0;
+  double tidy_margin = 0.13, goal_tolerance = 0.05, learning_timeout = 20.0;
   pnh.param("pose_source", pose_source, pose_source);
   pnh.param("retries", retries, retries);
   pnh.param("tidy", tidy, tidy);
@@ -522,8 +522,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   }
 
   // ---- goal-directed state ----
-  setState("goal_directed");
-  publishProgress(&context);
+  if (goal.goals > 0) {
+    setState("goal_directed");
+    publishProgress(&context);
+  }
   for (std::uint32_t g = 0; g < goal.goals; ++g) {
     why = gate(context, false);
     if (!why.empty()) return ended(why);

@@ -32,6 +32,18 @@ std::vector<std::string> split(const std::string& text) {
   return out;
 }
 
+/// "experiments" of a run's parameters (JSON written by LOOPMODEL), or -1.
+long designedCount(const std::string& parameters_json) {
+  const std::string key = "\"experiments\":";
+  const auto at = parameters_json.find(key);
+  if (at == std::string::npos) return -1;
+  try {
+    return std::stol(parameters_json.substr(at + key.size()));
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
 void plot(const std::vector<LearningCurve>& curves, const std::string& path) {
   const int w = 720, h = 440, left = 70, right = 20, top = 30, bottom = 50;
   cv::Mat image(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -123,7 +135,14 @@ int main(int argc, char** argv) {
     std::map<std::string, int> failed;
     for (const auto& name : designs) {
       const RunInfo& run = need(name);
-      const auto training = pushSamples(kb->experiments(run.id, "done"));
+      // Only the designed experiments (seq 1..N, N from the run's parameters), not the goal-directed pushes
+      // that follow them in the same run.
+      std::vector<ExperimentRecord> designed;
+      const long n = designedCount(run.parameters_json);
+      for (const auto& r : kb->experiments(run.id, "done")) {
+        if (n < 0 || r.seq <= n) designed.push_back(r);
+      }
+      const auto training = pushSamples(designed);
       failed[name] = static_cast<int>(kb->experimentCount(run.id, "failed"));
       std::vector<int> checkpoints;
       for (int k = 0; k <= static_cast<int>(training.size()); ++k) checkpoints.push_back(k);

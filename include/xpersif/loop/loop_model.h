@@ -20,7 +20,7 @@
  * `~progress` (RunLoopFeedback).
  *
  * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
- * `~tidy_margin` (m, 0.08), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (4), `~learning_timeout` (s, 20),
+ * `~tidy_margin` (m, 0.13), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
  * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
  * and the `world` file for the arena (embodiment_setup.h).
  */
@@ -75,8 +75,8 @@ class LoopModel : public Supervisor {
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
-  double tidy_margin_ = 0.08, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
-  int max_goal_pushes_ = 4;
+  double tidy_margin_ = 0.13, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
+  int max_goal_pushes_ = 6;
   std::mt19937_64 rng_{1};
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
