@@ -20,7 +20,7 @@ SnapshotRecorder::SnapshotRecorder(ros::NodeHandle nh, ros::NodeHandle private_n
   snapshot.kind = core::Contract::Kind::Operation;
   snapshot.interface_type = "std_srvs/Trigger";
   snapshot.description = "write the last ~seconds of the buffered topics to run_dir/snapshot_<time>.bag now";
-  snapshot.effects = {"snapshot_queued"};
+  snapshot.effects = {"queued(snapshot)"};
   addOperation<std_srvs::Trigger>(ContractChecker<std_srvs::Trigger::Request>(snapshot), nullptr,
                                   [this](const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
                                     response.message = queueSnapshot("snapshot");
@@ -123,7 +123,8 @@ void SnapshotRecorder::onMessage(const std::string& topic,
   e.connection_header = event.getConnectionHeaderPtr();
   e.bytes = e.message->size() + topic.size() + 64;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!buffer_.empty() && e.time < buffer_.back().time - ros::Duration(1.0)) {
+  // (seconds as doubles: ros::Time - Duration throws below zero, and an exception here would end the process)
+  if (!buffer_.empty() && e.time.toSec() < buffer_.back().time.toSec() - 1.0) {
     buffer_.clear();  // time jumped back (simulation restarted, bag replayed again): the old buffer is another past
     bytes_ = 0;
   }
@@ -183,15 +184,17 @@ void SnapshotRecorder::work() {
     std::string path = job.path;
     std::error_code ec;
     for (int i = 1; fs::exists(path, ec); ++i) path = job.path.substr(0, job.path.size() - 4) + "_" + std::to_string(i) + ".bag";
+    const std::string writing = path + ".writing";  // renamed when closed: a .bag is always complete
     ComponentEvent event;
     try {
-      rosbag::Bag bag(path, rosbag::bagmode::Write);
+      rosbag::Bag bag(writing, rosbag::bagmode::Write);
       bag.setCompression(rosbag::compression::LZ4);
       for (const auto& e : job.entries) {
         bag.write(e.topic, e.time, *e.message,
                   boost::const_pointer_cast<ros::M_string>(e.connection_header));
       }
       bag.close();
+      fs::rename(writing, path);  // throws filesystem_error (a std::exception) on failure
       event = events().make(ComponentEvent::OPERATION, "write_snapshot", "ok");
       event.response = "path: " + path + "\nmessages: " + std::to_string(job.entries.size());
       {
@@ -202,6 +205,7 @@ void SnapshotRecorder::work() {
       msg.data = path;
       snapshots_pub_.publish(msg);
     } catch (const std::exception& e) {
+      fs::remove(writing, ec);
       event = events().make(ComponentEvent::OPERATION, "write_snapshot", "failed",
                             "cannot write '" + path + "': " + e.what());
       ROS_ERROR("%s: cannot write snapshot '%s': %s", name().c_str(), path.c_str(), e.what());
