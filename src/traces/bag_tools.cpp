@@ -322,9 +322,9 @@ ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptio
   std::vector<std::string> header{"bag", "time", "run_id", "seq", "id", "design", "object", "side", "offset",
                                   "distance", "status", "reason", "before_stamp", "before_x", "before_y",
                                   "before_yaw"};
-  for (const auto& n : extra_names) header.push_back("before_" + n);
+  for (const auto& n : extra_names) header.push_back("before_feature_" + n);
   for (const char* c : {"after_stamp", "after_x", "after_y", "after_yaw"}) header.push_back(c);
-  for (const auto& n : extra_names) header.push_back("after_" + n);
+  for (const auto& n : extra_names) header.push_back("after_feature_" + n);
   for (const char* c : {"dx", "dy", "dyaw", "predicted_dx", "predicted_dy", "predicted_dyaw", "predicted_std_dx",
                         "predicted_std_dy", "predicted_std_dyaw", "surprise", "started", "finished"})
     header.push_back(c);
@@ -413,7 +413,7 @@ ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptio
     features = std::make_unique<CsvFile>(options.out_dir, "features.csv");
     std::vector<std::string> h{"time", "topic", "stamp", "source", "object", "x", "y", "z", "yaw",
                                "orientation_known", "confidence", "pixel_area"};
-    h.insert(h.end(), names.begin(), names.end());
+    for (const auto& n : names) h.push_back("feature_" + n);  // VISION's own x, y would collide with the pose
     features->row(h);
     for (auto& r : rows) {
       for (const auto& n : names) {

@@ -249,7 +249,7 @@ TEST(Export, WritesOneRowPerExperimentAndPoses) {
   const auto rows = lines(readFile(out / "experiments.csv"));
   ASSERT_EQ(rows.size(), 11u);
   EXPECT_EQ(rows[0].rfind("bag,time,run_id,seq,id,design,object,side,offset,distance,status,reason,before_stamp,"
-                          "before_x,before_y,before_yaw,before_hue,before_saturation,before_size,after_stamp",
+                          "before_x,before_y,before_yaw,before_feature_hue,before_feature_saturation,before_feature_size,after_stamp",
                           0),
             0u)
       << rows[0];
