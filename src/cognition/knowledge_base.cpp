@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <limits>
 
-#include "xpersif/cognition/conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {
 

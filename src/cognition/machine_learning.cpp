@@ -2,7 +2,8 @@
 
 #include <algorithm>
 
-#include "xpersif/cognition/conversions.h"
+#include "xpersif/core/experiment_samples.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {
 
@@ -18,15 +19,15 @@ core::Bindings pushBindings(const Experiment& e) {
 }  // namespace
 
 std::string MachineLearning::sampleOf(const ExperimentRecord& record, core::PushSample* sample) {
-  if (record.status != "done") return "its status is " + record.status;
-  const ObjectFeatures* object = nullptr;
-  for (const auto& o : record.before.objects) {
-    if (o.name == record.experiment.object) object = &o;
+  // The one rule shared with offline training (core/experiment_samples.h).
+  std::string why;
+  try {
+    const auto made = core::pushSampleOf(fromMsg(record), &why);
+    if (!made) return why;
+    *sample = *made;
+  } catch (const std::exception& e) {
+    return e.what();
   }
-  if (!object) return "its 'before' vector does not contain the pushed object " + record.experiment.object;
-  sample->input.experiment = fromMsg(record.experiment);
-  sample->input.object = fromMsg(*object);
-  sample->outcome = {record.dx, record.dy, record.dyaw};
   return "";
 }
 

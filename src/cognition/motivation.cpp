@@ -1,6 +1,6 @@
 #include "xpersif/cognition/motivation.h"
 
-#include "xpersif/cognition/conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {
 

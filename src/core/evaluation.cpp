@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "xpersif/core/experiment_samples.h"
 #include "xpersif/core/motivation.h"
 
 namespace xpersif::core {
@@ -9,10 +10,7 @@ namespace xpersif::core {
 std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records) {
   std::vector<PushSample> samples;
   for (const auto& r : records) {
-    if (r.status != "done" || !r.outcome) continue;
-    const ObjectFeatures* object = r.before.find(r.experiment.object);
-    if (!object) continue;
-    samples.push_back({{r.experiment, *object}, *r.outcome});
+    if (auto sample = pushSampleOf(r)) samples.push_back(*sample);
   }
   return samples;
 }

@@ -173,11 +173,11 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   };
   const core::ExperimentChoice choice = design_->next(context);
   ++designed_;
-  response.experiment = toExperimentMsg(core::Experiment{choice.object, choice.side, choice.offset, choice.distance});
+  response.experiment = toMsg(core::Experiment{choice.object, choice.side, choice.offset, choice.distance});
   response.design = design_name_;
   response.rationale = choice.rationale;
   if (design_name_ == "curiosity") {
-    const core::RegionKey key = regions_->regionOf(toCoreExperiment(response.experiment));
+    const core::RegionKey key = regions_->regionOf(fromMsg(response.experiment));
     const auto found = curiosity_.find(key.toString());
     response.rationale += "; region " + key.toString() + " curiosity " +
                           core::describeNumber(found == curiosity_.end() ? optimistic_ : found->second) +

@@ -220,7 +220,7 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!learner_) throw std::runtime_error("no model");
-  const core::ObjectFeatures object = toCoreObject(*findObject(request.scene, request.object));
+  const core::ObjectFeatures object = fromMsg(*findObject(request.scene, request.object));
   std::vector<core::Experiment> candidates;
   for (const auto& side : core::pushSides()) {
     for (double offset : offsets_) {
@@ -241,7 +241,7 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
     const double error = std::hypot(end.x - request.target_x, end.y - request.target_y);
     if (error < best) {
       best = error;
-      response.experiment = toExperimentMsg(c);
+      response.experiment = toMsg(c);
     }
   }
   response.expected_error = best;

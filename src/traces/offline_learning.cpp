@@ -1,6 +1,6 @@
 #include "xpersif/traces/offline_learning.h"
 
-#include "xpersif/traces/record_conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif::traces {
 

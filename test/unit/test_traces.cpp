@@ -18,7 +18,7 @@
 #include "xpersif/core/validation.h"
 #include "xpersif/traces/bag_tools.h"
 #include "xpersif/traces/offline_learning.h"
-#include "xpersif/traces/record_conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace fs = std::filesystem;
 namespace traces = xpersif::traces;
@@ -129,10 +129,10 @@ void writeRun(const std::vector<ExperimentRecord>& records, const std::string& d
       }
       ros::Time when;
       when.fromSec(records[i].finished + 0.05);
-      auto msg = traces::toMsg(records[i]);
+      auto msg = xpersif::toMsg(records[i]);
       msg.design = "random";
       bag.write(traces::kExperimentsTopic, when, msg);
-      auto features = traces::toMsg(records[i].after);
+      auto features = xpersif::toMsg(records[i].after);
       features.source = "/xpersif/observation";
       features.robot_found = true;
       features.robot.x = 0.25;

@@ -19,7 +19,7 @@
 
 namespace xpersif::core {
 
-/// The learner's samples in a run's records: successful experiments whose before-vector has the object.
+/// The learner's samples in a run's records, by the one rule of experiment_samples.h.
 std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records);
 
 /// The configuration MACHINELEARNING uses: hue and size as features plus the objects' identities.
