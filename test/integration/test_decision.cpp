@@ -10,6 +10,7 @@
 #include <iostream>
 #include <set>
 
+#include "ground_truth.h"
 #include "test_helpers.h"
 #include "xpersif/BodyPoses.h"
 #include "xpersif/ChoosePush.h"
@@ -27,6 +28,8 @@
 
 using xpersif_test::transition;
 using xpersif_test::waitFor;
+using xpersif_test::GroundTruth;
+using xpersif_test::Planar;
 
 namespace {
 
@@ -39,49 +42,6 @@ const std::vector<std::string> kSides = {"-x", "+x", "-y", "+y"};
 using ExecuteClient = actionlib::SimpleActionClient<xpersif::ExecutePlanAction>;
 using State = actionlib::SimpleClientGoalState;
 
-struct Planar {
-  double x = 0, y = 0, yaw = 0;
-};
-
-double yawOf(const geometry_msgs::Quaternion& q) {
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
-
-class GroundTruth {
- public:
-  explicit GroundTruth(ros::NodeHandle& nh) {
-    sub_ = nh.subscribe<xpersif::BodyPoses>(ns + "xpersim/ground_truth", 10, [this](const xpersif::BodyPoses::ConstPtr& m) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      latest_ = m;
-    });
-  }
-  bool ready() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return latest_ != nullptr;
-  }
-  Planar pose(const std::string& body) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = 0; latest_ && i < latest_->names.size(); ++i) {
-      if (latest_->names[i] != body) continue;
-      const auto& p = latest_->poses[i];
-      return {p.position.x, p.position.y, yawOf(p.orientation)};
-    }
-    ADD_FAILURE() << "no ground truth for " << body;
-    return {};
-  }
-  double speed(const std::string& body) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = 0; latest_ && i < latest_->names.size(); ++i) {
-      if (latest_->names[i] == body) return std::hypot(latest_->velocities[i].linear.x, latest_->velocities[i].linear.y);
-    }
-    return NAN;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  xpersif::BodyPoses::ConstPtr latest_;
-  ros::Subscriber sub_;
-};
 
 xpersif::PlanStep step(const std::string& component, const std::string& op, const std::string& type,
                        std::vector<std::string> parameters, std::vector<std::string> values) {
