@@ -29,6 +29,7 @@ XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 set -u
 run_dir="${XPERSIF_RUN_DIR:-$repo/runs/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$run_dir"
+run_dir=$(cd "$run_dir" && pwd)  # absolute: the nodes run in another working directory
 export ROS_LOG_DIR="$run_dir/ros_log"
 database="$run_dir/knowledge.db"
 

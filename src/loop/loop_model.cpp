@@ -2,6 +2,7 @@
 
 #include <actionlib/client/simple_action_client.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -145,6 +146,9 @@ void LoopModel::onConfigure() {
   bool arrange = true;
   pnh.param("arrange_at_start", arrange, arrange);
   pnh.param("tidy_margin", tidy_margin, tidy_margin);
+  double tidy_spacing = 0.14;
+  pnh.param("tidy_spacing", tidy_spacing, tidy_spacing);
+  core::requireInRange("~tidy_spacing", tidy_spacing, 0.0, 0.4);
   pnh.param("goal_tolerance", goal_tolerance, goal_tolerance);
   pnh.param("max_goal_pushes", max_goal_pushes, max_goal_pushes);
   pnh.param("learning_timeout", learning_timeout, learning_timeout);
@@ -162,6 +166,7 @@ void LoopModel::onConfigure() {
     tidy_ = tidy;
     arrange_at_start_ = arrange;
     tidy_margin_ = tidy_margin;
+    tidy_spacing_ = tidy_spacing;
     goal_tolerance_ = goal_tolerance;
     max_goal_pushes_ = max_goal_pushes;
     learning_timeout_ = learning_timeout;
@@ -248,14 +253,31 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
   const double hx = setup_.arena.size_x / 2 - tidy_margin_, hy = setup_.arena.size_y / 2 - tidy_margin_;
   for (const auto& [name, size] : setup_.object_sizes) {
     const ObjectFeatures* o = findObject(scene, name);
-    if (!o || std::abs(o->position.x) > hx || std::abs(o->position.y) > hy) misplaced.push_back(name);
+    if (!o || std::abs(o->position.x) > hx || std::abs(o->position.y) > hy) {
+      misplaced.push_back(name);
+      continue;
+    }
+    // Cubes pushed together leave no room for the robot at their faces: the later one of a close pair moves.
+    for (const auto& other : scene.objects) {
+      if (other.name >= name || !setup_.object_sizes.count(other.name)) continue;
+      if (std::hypot(other.position.x - o->position.x, other.position.y - o->position.y) < tidy_spacing_) {
+        misplaced.push_back(name);
+        break;
+      }
+    }
   }
+  // A misplaced cube's old spot no longer counts as occupied.
+  occupied.clear();
+  for (const auto& o : scene.objects) {
+    if (std::find(misplaced.begin(), misplaced.end(), o.name) == misplaced.end()) occupied.emplace_back(o.position.x, o.position.y);
+  }
+  if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
   for (const auto& name : misplaced) {
     std::uniform_real_distribution<double> ux(-hx + 0.02, hx - 0.02), uy(-hy + 0.02, hy - 0.02);
     for (int attempt = 0; attempt < 200; ++attempt) {
       const double x = ux(rng_), y = uy(rng_);
       bool free = true;
-      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > 0.12;
+      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > tidy_spacing_;
       if (!free) continue;
       SetPose place;
       place.request.name = name;

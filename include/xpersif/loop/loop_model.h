@@ -15,12 +15,12 @@
  *
  * Everything that happens is in the knowledge base, so a run that was interrupted (a component died, the
  * whole system was stopped) resumes where it stopped (goal.resume). The arena is tidied between
- * experiments as an experimenter would: a cube pushed against a wall or out of sight is put back at a free
- * spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
+ * experiments as an experimenter would: a cube pushed against a wall, against another cube or out of sight
+ * is put back at a free spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
  * `~progress` (RunLoopFeedback).
  *
  * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
- * `~tidy_margin` (m, 0.13), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
+ * `~tidy_margin` (m, 0.13), `~tidy_spacing` (m, 0.14: cubes closer than this are moved apart), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
  * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
  * and the `world` file for the arena (embodiment_setup.h).
  */
@@ -75,7 +75,7 @@ class LoopModel : public Supervisor {
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
-  double tidy_margin_ = 0.13, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
+  double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
   int max_goal_pushes_ = 6;
   std::mt19937_64 rng_{1};
 
