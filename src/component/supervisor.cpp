@@ -81,6 +81,16 @@ void Supervisor::onConfigure() {
   XmlRpc::XmlRpcValue list;
   std::vector<SupervisedComponent> components;
   if (pnh.getParam("components", list)) components = parseComponents(list, nodeHandle());
+  // ~omit: components of the list to leave out (a launch file's switch, e.g. snapshot:=false).
+  std::vector<std::string> omit;
+  pnh.param("omit", omit, omit);
+  for (const std::string& name : omit) {
+    const std::string resolved = nodeHandle().resolveName(name);
+    const auto it = std::find_if(components.begin(), components.end(),
+                                 [&](const SupervisedComponent& c) { return c.name == resolved; });
+    if (it == components.end()) throw std::runtime_error("~omit names " + name + ", which is not in ~components");
+    components.erase(it);
+  }
   double heartbeat_timeout = 1.0, startup_timeout = 10.0;
   bool restart = true;
   pnh.param("heartbeat_timeout", heartbeat_timeout, heartbeat_timeout);

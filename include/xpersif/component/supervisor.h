@@ -22,6 +22,7 @@
  * heartbeat_timeout: 1.0           # seconds of silence before a component counts as lost
  * startup_timeout: 10.0            # seconds a component has to come up after loading
  * restart: true                    # reload lost components when their manager answers again
+ * omit: [counter]                 # names of the list not to start (default none; unknown names are an error)
  * @endcode
  */
 #pragma once
