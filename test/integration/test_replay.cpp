@@ -38,7 +38,7 @@
 #include "xpersif/LearnedModel.h"
 #include "xpersif/core/experiment_samples.h"
 #include "xpersif/traces/bag_tools.h"
-#include "xpersif/traces/record_conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 namespace {
 
@@ -175,7 +175,7 @@ TEST(Replay, learnedModelsAndPredictionsEqualTheLiveOnes) {
   const auto live = readTopic<xpersif::LearnedModel>(b.live, "/xpersif/machine_learning/model");
   const auto replay = readTopic<xpersif::LearnedModel>(b.replay, b.model_topic);
   std::vector<xpersif::core::ExperimentRecord> records;
-  for (const auto& r : xpersif::traces::readExperimentRecords(b.live)) records.push_back(xpersif::traces::fromMsg(r.record));
+  for (const auto& r : xpersif::traces::readExperimentRecords(b.live)) records.push_back(xpersif::fromMsg(r.record));
   ASSERT_FALSE(records.empty()) << "no experiment records in the live recording";
   ASSERT_FALSE(replay.empty()) << "the replayed MACHINELEARNING published nothing on " << b.model_topic;
 
