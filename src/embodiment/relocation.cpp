@@ -197,102 +197,78 @@ std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path)
   return path->ok ? "" : path->reason;
 }
 
-CommandOutcome Relocation::goTo(GoToPose::Context& context, GoToPoseResult& result) {
-  const GoToPoseGoal& goal = context.goal();
-  core::PathResult path;
-  std::string why = planTo(goal, &path);
-  if (!why.empty()) return CommandOutcome::aborted(result.message = "no path: " + why);
-  core::PathFollower follower(limits(), options_);
-  follower.setPath(path.waypoints);
+template <class Context, class Controller, class Record>
+CommandOutcome Relocation::drive(Context& context, const std::string& pose_source, Controller& controller,
+                                 Record record, std::string& message) {
   const std::uint64_t stop_generation = stop_generation_;
   ros::Time last = ros::Time::now();
   core::Pose2D pose;
   while (true) {
     if (context.stopRequested() || stop_generation_ != stop_generation) {
-      follower.stop();
       publishVelocity({});
-      pose_source_->pose(goal.pose_source, &pose);
-      result.final_pose = toMsg(pose);
-      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
-      return CommandOutcome::aborted(result.message = stop_generation_ != stop_generation
-                                                          ? "stopped by the stop operation"
-                                                          : "component stopping; robot stopped");
+      if (context.cancelRequested()) return CommandOutcome::preempted(message = "cancelled; robot stopped");
+      return CommandOutcome::aborted(message = stop_generation_ != stop_generation ? "stopped by the stop operation"
+                                                                                    : "component stopping; robot stopped");
     }
-    why = pose_source_->pose(goal.pose_source, &pose);
+    const std::string why = pose_source_->pose(pose_source, &pose);
     if (!why.empty()) {
       publishVelocity({});
-      return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
+      return CommandOutcome::aborted(message = "lost the robot's pose: " + why);
     }
     const ros::Time now = ros::Time::now();
     const double dt = std::max(1e-4, (now - last).toSec());
     last = now;
-    follower.setLimits(limits());
-    const core::MotionFeedback fb = follower.update(pose, dt);
+    controller.setLimits(limits());  // set_max_velocity takes effect mid-move
+    const core::MotionFeedback fb = controller.update(pose, dt);
     publishVelocity(fb.command);
+    record(pose, fb);
+    if (fb.done || fb.failed) {
+      publishVelocity({});
+      if (fb.failed) return CommandOutcome::aborted(message = fb.reason);
+      return CommandOutcome::succeeded(message);
+    }
+    context.sleepFor(ros::Duration(control_period_));
+  }
+}
+
+CommandOutcome Relocation::goTo(GoToPose::Context& context, GoToPoseResult& result) {
+  const GoToPoseGoal& goal = context.goal();
+  core::PathResult path;
+  const std::string why = planTo(goal, &path);
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "no path: " + why);
+  core::PathFollower follower(limits(), options_);
+  follower.setPath(path.waypoints);
+  auto record = [&](const core::Pose2D& pose, const core::MotionFeedback& fb) {
     result.final_pose = toMsg(pose);
     result.position_error = std::hypot(goal.target.x - pose.x, goal.target.y - pose.y);
     result.yaw_error = core::normalizeAngle(goal.target.theta - pose.yaw);
-    if (fb.done) {
-      publishVelocity({});
-      return CommandOutcome::succeeded(result.message = "reached " + describePose(pose.x, pose.y, pose.yaw));
-    }
-    if (fb.failed) {
-      publishVelocity({});
-      return CommandOutcome::aborted(result.message = fb.reason);
-    }
+    if (fb.done) result.message = "reached " + describePose(pose.x, pose.y, pose.yaw);
+    if (fb.done || fb.failed) return;
     GoToPoseFeedback feedback;
-    feedback.pose = toMsg(pose);
+    feedback.pose = result.final_pose;
     feedback.phase = core::toString(fb.phase);
     feedback.distance_remaining = fb.distance_remaining;
     feedback.yaw_error = fb.yaw_error;
     context.publishFeedback(feedback);
-    context.sleepFor(ros::Duration(control_period_));
-  }
+  };
+  return drive(context, goal.pose_source, follower, record, result.message);
 }
 
 CommandOutcome Relocation::turnTo(TurnTo::Context& context, TurnToResult& result) {
   const TurnToGoal& goal = context.goal();
   core::TurnController controller(limits(), options_.yaw_tolerance);
   controller.setGoal(goal.heading);
-  const std::uint64_t stop_generation = stop_generation_;
-  ros::Time last = ros::Time::now();
-  core::Pose2D pose;
-  while (true) {
-    if (context.stopRequested() || stop_generation_ != stop_generation) {
-      controller.stop();
-      publishVelocity({});
-      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
-      return CommandOutcome::aborted(result.message = stop_generation_ != stop_generation
-                                                          ? "stopped by the stop operation"
-                                                          : "component stopping; robot stopped");
-    }
-    const std::string why = pose_source_->pose(goal.pose_source, &pose);
-    if (!why.empty()) {
-      publishVelocity({});
-      return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
-    }
-    const ros::Time now = ros::Time::now();
-    const double dt = std::max(1e-4, (now - last).toSec());
-    last = now;
-    controller.setLimits(limits());
-    const core::MotionFeedback fb = controller.update(pose, dt);
-    publishVelocity(fb.command);
+  auto record = [&](const core::Pose2D& pose, const core::MotionFeedback& fb) {
     result.final_pose = toMsg(pose);
     result.yaw_error = core::normalizeAngle(goal.heading - pose.yaw);
-    if (fb.done) {
-      publishVelocity({});
-      return CommandOutcome::succeeded(result.message = "heading " + core::describeNumber(pose.yaw));
-    }
-    if (fb.failed) {
-      publishVelocity({});
-      return CommandOutcome::aborted(result.message = fb.reason);
-    }
+    if (fb.done) result.message = "heading " + core::describeNumber(pose.yaw);
+    if (fb.done || fb.failed) return;
     TurnToFeedback feedback;
-    feedback.pose = toMsg(pose);
+    feedback.pose = result.final_pose;
     feedback.yaw_error = fb.yaw_error;
     context.publishFeedback(feedback);
-    context.sleepFor(ros::Duration(control_period_));
-  }
+  };
+  return drive(context, goal.pose_source, controller, record, result.message);
 }
 
 }  // namespace xpersif

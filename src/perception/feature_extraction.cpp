@@ -2,27 +2,14 @@
 
 #include <std_msgs/UInt64MultiArray.h>
 
-#include "xpersif/perception/observation.h"  // get_features
 
 namespace xpersif {
 
 FeatureExtraction::FeatureExtraction(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/FeatureExtractionNodelet") {
-  ContractChecker<GetFeatures::Request> contract(getFeaturesContract("feature extraction"));
-  contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return latest_ ? std::string() : "no image has been processed yet";
-  });
   addOperation<GetFeatures>(
-      contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
-        FeatureVector::ConstPtr latest;
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          latest = latest_;
-        }
-        answerGetFeatures(latest, request, response);
-      });
+      features_.contract("feature extraction", "no image has been processed yet"), LatestFeatures::validate,
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
 void FeatureExtraction::onConfigure() {
@@ -40,7 +27,7 @@ void FeatureExtraction::onConfigure() {
     camera_name_ = camera;
     image_topic_ = image_topic;
     report_address_ = report;
-    latest_.reset();
+    features_.reset();
     if (!features_pub_) {
       features_pub_ = pnh.advertise<FeatureVector>("features", 10);
       if (report_address_) address_pub_ = pnh.advertise<std_msgs::UInt64MultiArray>("buffer_address", 10);
@@ -102,7 +89,7 @@ void FeatureExtraction::onImage(const sensor_msgs::Image::ConstPtr& image) {
       address.data = {image->header.seq, reinterpret_cast<std::uintptr_t>(image->data.data())};
       address_pub_.publish(address);
     }
-    latest_ = features;
+    features_.set(features);
     features_pub_.publish(features);
   } catch (const core::ValidationError& e) {
     // One bad image is the sender's fault, not ours: say so and go on.

@@ -4,30 +4,6 @@
 
 namespace xpersif {
 
-core::Contract getFeaturesContract(const std::string& what) {
-  core::Contract c;
-  c.name = "get_features";
-  c.kind = core::Contract::Kind::Operation;
-  c.interface_type = "xpersif/GetFeatures";
-  c.description = "the latest feature vector from " + what;
-  c.preconditions = {{"perceived(scene)", "a feature vector must have been produced"}};
-  c.effects = {"observed(scene)"};
-  return c;
-}
-
-void answerGetFeatures(const FeatureVector::ConstPtr& latest, const GetFeatures::Request& request,
-                       GetFeatures::Response& response) {
-  if (!latest) throw std::runtime_error("no feature vector yet");
-  if (request.max_age > 0) {
-    const double age = (ros::Time::now() - latest->header.stamp).toSec();
-    if (age > request.max_age) {
-      throw std::runtime_error("the latest feature vector is " + core::describeNumber(age) + " s old, more than max_age " +
-                               core::describeNumber(request.max_age) + " s");
-    }
-  }
-  response.features = *latest;
-}
-
 Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : AggregateComponent(nh, private_nh, "xpersif/ObservationNodelet"),
       camera_(addPart<CameraPart>("camera", nh, "overhead",
@@ -35,21 +11,10 @@ Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                                     extraction_.setCamera(camera.scene(), camera.model());
                                   })),
       extraction_(addPart<FeatureExtractionPart>("feature_extraction")) {
-  ContractChecker<GetFeatures::Request> contract(getFeaturesContract("the overhead camera"));
-  contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return latest_ ? std::string() : "the overhead camera has produced no feature vector yet";
-  });
   addOperation<GetFeatures>(
-      contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
-        FeatureVector::ConstPtr latest;
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          latest = latest_;
-        }
-        answerGetFeatures(latest, request, response);
-      });
+      features_.contract("the overhead camera", "the overhead camera has produced no feature vector yet"),
+      LatestFeatures::validate,
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
 void Observation::onConfigure() {
@@ -66,7 +31,7 @@ void Observation::onConfigure() {
     rate_ = rate;
     max_wall_rate_ = max_wall_rate;
     report_address_ = report;
-    latest_.reset();
+    features_.reset();
     if (!image_pub_) {
       image_pub_ = pnh.advertise<sensor_msgs::Image>("image_raw", 2);
       info_pub_ = pnh.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
@@ -109,7 +74,7 @@ void Observation::tick() {
     }
     image_pub_.publish(image);
     info_pub_.publish(camera->info(image->header));
-    latest_ = features;
+    features_.set(features);
     features_pub_.publish(features);
   } catch (const std::exception& e) {
     reportError(std::string("observation failed: ") + e.what());

@@ -1,6 +1,5 @@
 #include "xpersif/perception/perception.h"
 
-#include "xpersif/perception/observation.h"  // get_features
 
 namespace xpersif {
 
@@ -33,21 +32,10 @@ Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
         response.reading = *reading;
       });
 
-  ContractChecker<GetFeatures::Request> features_contract(getFeaturesContract("the robot camera"));
-  features_contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return latest_ ? std::string() : "the robot camera has produced no feature vector yet";
-  });
   addOperation<GetFeatures>(
-      features_contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
-        FeatureVector::ConstPtr latest;
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          latest = latest_;
-        }
-        answerGetFeatures(latest, request, response);
-      });
+      features_.contract("the robot camera", "the robot camera has produced no feature vector yet"),
+      LatestFeatures::validate,
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
 void Perception::onConfigure() {
@@ -61,7 +49,7 @@ void Perception::onConfigure() {
     std::lock_guard<std::mutex> lock(mutex_);
     rate_ = rate;
     max_wall_rate_ = max_wall_rate;
-    latest_.reset();
+    features_.reset();
     have_mount_ = false;
     if (!image_pub_) {
       image_pub_ = pnh.advertise<sensor_msgs::Image>("image_raw", 2);
@@ -129,7 +117,7 @@ void Perception::tick() {
         extraction_.extract(*image, world_from_base * base_from_camera_, privateNodeHandle().getNamespace()));
     image_pub_.publish(image);
     info_pub_.publish(camera->info(image->header));
-    latest_ = features;
+    features_.set(features);
     features_pub_.publish(features);
   } catch (const std::exception& e) {
     reportError(std::string("perception failed: ") + e.what());

@@ -4,7 +4,6 @@
 
 #include "xpersif/embodiment/embodiment_setup.h"
 #include "xpersif/perception/feature_extraction_part.h"
-#include "xpersif/perception/observation.h"  // get_features
 
 namespace xpersif {
 
@@ -14,21 +13,10 @@ constexpr std::size_t kPending = 8;  // images or vectors waiting for their part
 
 Vision::Vision(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/VisionNodelet") {
-  ContractChecker<GetFeatures::Request> contract(getFeaturesContract("vision (with the selected features)"));
-  contract.check("perceived(scene)", [this](const GetFeatures::Request&) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return latest_ ? std::string() : "no image and feature vector pair has been processed yet";
-  });
   addOperation<GetFeatures>(
-      contract, [](const GetFeatures::Request& r) { core::requireInRange("max_age", r.max_age, 0.0, 1e6); },
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) {
-        FeatureVector::ConstPtr latest;
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          latest = latest_;
-        }
-        answerGetFeatures(latest, request, response);
-      });
+      features_.contract("vision (with the selected features)", "no image and feature vector pair has been processed yet"),
+      LatestFeatures::validate,
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
 void Vision::onConfigure() {
@@ -51,7 +39,7 @@ void Vision::onConfigure() {
   selection_.reset();
   images_.clear();
   vectors_.clear();
-  latest_.reset();
+  features_.reset();
   if (!features_pub_) {
     features_pub_ = pnh.advertise<FeatureVector>("features", 10);
     if (report_address_) address_pub_ = pnh.advertise<std_msgs::UInt64MultiArray>("buffer_address", 10);
@@ -134,7 +122,7 @@ void Vision::process(const sensor_msgs::Image& image, const FeatureVector& featu
       address.data = {image.header.seq, reinterpret_cast<std::uintptr_t>(image.data.data())};
       address_pub_.publish(address);
     }
-    latest_ = out;
+    features_.set(out);
     features_pub_.publish(out);
   } catch (const core::ValidationError& e) {
     ROS_WARN_THROTTLE(5.0, "%s: skipping an image: %s", name().c_str(), e.what());

@@ -9,7 +9,13 @@
 #include <mutex>
 #include <string>
 
+#include <vector>
+
 #include "xpersif/BodyPoses.h"
+#include "xpersif/ComponentStatus.h"
+#include "xpersif/GetFeatures.h"
+#include "xpersif/GetState.h"
+#include "xpersif/SetPose.h"
 
 namespace xpersif_test {
 
@@ -57,5 +63,39 @@ class GroundTruth {
   xpersif::BodyPoses::ConstPtr latest_;
   ros::Subscriber sub_;
 };
+
+/// True when every component under @p ns answers get_state with ACTIVE; else @p which names the first that does not.
+inline bool allActive(const std::string& ns, const std::vector<std::string>& components, std::string* which) {
+  for (const auto& c : components) {
+    xpersif::GetState state;
+    if (!ros::service::call(ns + c + "/get_state", state) || state.response.state != xpersif::ComponentStatus::ACTIVE) {
+      *which = c;
+      return false;
+    }
+  }
+  return true;
+}
+
+/// @p service (a get_features operation) answers with a vector at most a second old.
+inline bool featuresFresh(const std::string& service) {
+  xpersif::GetFeatures f;
+  f.request.max_age = 1.0;
+  return ros::service::call(service, f) && f.response.success;
+}
+
+/// Put the robot (or an object) somewhere through XPERSim's set_pose operation, then let the overhead camera see
+/// the new scene. "" or what went wrong.
+inline std::string place(const std::string& ns, const std::string& body, double x, double y, double yaw) {
+  xpersif::SetPose call;
+  call.request.name = body;
+  call.request.pose.position.x = x;
+  call.request.pose.position.y = y;
+  call.request.pose.orientation.z = std::sin(yaw / 2);
+  call.request.pose.orientation.w = std::cos(yaw / 2);
+  if (!ros::service::call(ns + "xpersim/set_pose", call)) return ns + "xpersim/set_pose did not answer";
+  if (!call.response.success) return call.response.message;
+  ros::Duration(0.5).sleep();
+  return "";
+}
 
 }  // namespace xpersif_test

@@ -42,44 +42,22 @@ using Client = actionlib::SimpleActionClient<Action>;
 class Embodiment : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    // Every component ACTIVE (ROBOTMODEL brings them up in its own thread).
-    for (const auto& c : kComponents) {
-      ASSERT_TRUE(waitFor(
-          [&] {
-            xpersif::GetState state;
-            return ros::service::call(ns + c + "/get_state", state) &&
-                   state.response.state == xpersif::ComponentStatus::ACTIVE;
-          },
-          90.0))
-          << c << " did not become ACTIVE";
-    }
+    std::string which;
+    ASSERT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 90.0))
+        << which << " did not become ACTIVE";
   }
 
   void SetUp() override {
     truth_ = std::make_unique<GroundTruth>(nh_);
     ASSERT_TRUE(waitFor([&] { return truth_->ready(); }, 20.0));
     // A fresh observation must exist before goals are sent (the commands' preconditions need it).
-    ASSERT_TRUE(waitFor(
-        [&] {
-          xpersif::GetFeatures f;
-          f.request.max_age = 1.0;
-          return ros::service::call(ns + "observation/get_features", f) && f.response.success;
-        },
-        30.0));
+    ASSERT_TRUE(waitFor([&] { return xpersif_test::featuresFresh(ns + "observation/get_features"); }, 30.0));
   }
 
   /// Put the robot (or an object) somewhere, through XPERSim's set_pose operation.
   void place(const std::string& body, double x, double y, double yaw) {
-    xpersif::SetPose call;
-    call.request.name = body;
-    call.request.pose.position.x = x;
-    call.request.pose.position.y = y;
-    call.request.pose.orientation.z = std::sin(yaw / 2);
-    call.request.pose.orientation.w = std::cos(yaw / 2);
-    ASSERT_TRUE(ros::service::call(ns + "xpersim/set_pose", call));
-    ASSERT_TRUE(call.response.success) << call.response.message;
-    // Let the overhead camera see the new scene before the next goal.
-    ros::Duration(0.5).sleep();
+    const std::string why = xpersif_test::place(ns, body, x, y, yaw);
+    ASSERT_TRUE(why.empty()) << why;
   }
 
   template <class Action, class Goal>

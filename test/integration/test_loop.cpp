@@ -9,6 +9,7 @@
 #include <csignal>
 #include <set>
 
+#include "ground_truth.h"
 #include "test_helpers.h"
 #include "xpersif/ComponentEvent.h"
 #include "xpersif/ExperimentRecord.h"
@@ -29,17 +30,6 @@ const std::vector<std::string> kComponents = {"loop_model", "xpersim", "robot_mo
                                               "machine_learning", "motivation", "design_of_experiments",
                                               "planner", "execution", "goal_design", "relocation",
                                               "manipulation", "observation", "vision", "perception"};
-
-bool allActive(std::string* which) {
-  for (const auto& c : kComponents) {
-    xpersif::GetState state;
-    if (!ros::service::call(ns + c + "/get_state", state) || state.response.state != xpersif::ComponentStatus::ACTIVE) {
-      *which = c;
-      return false;
-    }
-  }
-  return true;
-}
 
 /// The process id of a node, through its own XML-RPC API.
 int pidOf(const std::string& node) {
@@ -62,7 +52,7 @@ int pidOf(const std::string& node) {
 TEST(Loop, AShortRunLearnsAndIsRecorded) {
   ros::NodeHandle nh;
   std::string which;
-  ASSERT_TRUE(waitFor([&] { return allActive(&which); }, 180.0)) << which << " did not become ACTIVE";
+  ASSERT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 180.0)) << which << " did not become ACTIVE";
   Recorder<xpersif::ExperimentRecord> records(nh, ns + "knowledge_base/experiments");
   Recorder<xpersif::Motivation> motivation(nh, ns + "motivation/motivation");
   Recorder<xpersif::ComponentEvent> events(nh, ns + "loop_model/events");
@@ -128,7 +118,7 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   notions.request.run_id = result->run_id;
   EXPECT_TRUE(ros::service::call(ns + "knowledge_base/get_notions", notions));
   EXPECT_TRUE(notions.response.success) << notions.response.message;
-  EXPECT_TRUE(waitFor([&] { return allActive(&which); }, 60.0)) << which << " is not ACTIVE after the run";
+  EXPECT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 60.0)) << which << " is not ACTIVE after the run";
 }
 
 int main(int argc, char** argv) {

@@ -18,6 +18,7 @@
 #include "xpersif/GetFeatures.h"
 #include "xpersif/component/component.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/latest_features.h"
 #include "xpersif/ros/scene_tracker.h"
 
 namespace xpersif {
@@ -41,7 +42,7 @@ class FeatureExtraction : public Component {
   core::CameraModel camera_;
   bool report_address_ = false;
   FeatureExtractionPart extraction_;
-  FeatureVector::ConstPtr latest_;
+  LatestFeatures features_;
   std::unique_ptr<SceneTracker> tracker_;
   ros::Publisher features_pub_, address_pub_;
   ros::Subscriber image_sub_;

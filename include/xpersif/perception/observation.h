@@ -7,7 +7,7 @@
  * At `~rate` Hz of ROS time (at most `~max_wall_rate` Hz of wall time, so that a simulator running faster
  * than real time does not flood it) it renders the camera straight into an image message, extracts the
  * objects and the robot from that same buffer, and publishes `~image_raw`, `~camera_info` and `~features`
- * (xpersif/FeatureVector). Operation `get_features` returns the latest vector.
+ * (xpersif/FeatureVector). Operation `get_features` returns the latest vector (latest_features.h).
  * `~report_buffer_address` (default false) publishes [image seq, buffer address] on `~buffer_address`
  * for the zero-copy test.
  */
@@ -22,14 +22,9 @@
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/latest_features.h"
 
 namespace xpersif {
-
-/// The get_features operation shared by OBSERVATION, PERCEPTION, FEATUREEXTRACTION and VISION.
-core::Contract getFeaturesContract(const std::string& what);
-/// Answer get_features from @p latest (null: nothing yet), refusing vectors older than request.max_age.
-void answerGetFeatures(const FeatureVector::ConstPtr& latest, const GetFeatures::Request& request,
-                       GetFeatures::Response& response);
 
 class Observation : public AggregateComponent {
  public:
@@ -50,7 +45,7 @@ class Observation : public AggregateComponent {
   bool report_address_ = false;
   std::uint32_t seq_ = 0;
   ros::WallTime last_wall_;
-  FeatureVector::ConstPtr latest_;
+  LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_, address_pub_;
   ros::Timer timer_;
 };

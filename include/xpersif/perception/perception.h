@@ -22,6 +22,7 @@
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/latest_features.h"
 
 namespace xpersif {
 
@@ -90,7 +91,7 @@ class Perception : public AggregateComponent {
   bool have_mount_ = false;
   std::uint32_t seq_ = 0;
   ros::WallTime last_wall_;
-  FeatureVector::ConstPtr latest_;
+  LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_;
   ros::Timer timer_;
 };

@@ -21,6 +21,7 @@
 #include "xpersif/GetFeatures.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/vision.h"
+#include "xpersif/perception/latest_features.h"
 
 namespace xpersif {
 
@@ -49,7 +50,7 @@ class Vision : public Component {
   bool report_address_ = false;
   std::deque<sensor_msgs::Image::ConstPtr> images_;  // shared pointers: no copies
   std::deque<FeatureVector::ConstPtr> vectors_;
-  FeatureVector::ConstPtr latest_;
+  LatestFeatures features_;
   ros::Publisher features_pub_, address_pub_;
   ros::Subscriber image_sub_, features_sub_, selection_sub_;
 };
