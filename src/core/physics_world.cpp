@@ -576,6 +576,17 @@ void PhysicsWorld::injectFault(const std::string& body, bool explode) {
 SceneDescription PhysicsWorld::buildScene() const {
   SceneDescription scene;
   const ArenaSpec& a = spec_.arena;
+  scene.arena_size_x = a.size_x;
+  scene.arena_size_y = a.size_y;
+  if (!spec_.robot.links.empty()) scene.robot_root = spec_.robot.links.front().name;
+  scene.robot_marker = spec_.robot.heading_marker;
+  for (std::size_t i = 1; scene.robot_marker.empty() && i < spec_.robot.links.size(); ++i) {
+    const auto& visuals = spec_.robot.links[i].visuals;
+    if (visuals.size() == 1 && visuals.front().shape.type == Shape::Type::Box) {
+      scene.robot_marker = spec_.robot.links[i].name;
+    }
+  }
+  for (const ObjectSpec& o : spec_.objects) scene.objects.push_back(o.name);
   SceneNode arena;
   arena.name = "arena";
   arena.parent = scene.world_frame;

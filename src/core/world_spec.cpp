@@ -292,7 +292,7 @@ WorldSpec parseWorld(const std::string& yaml_text, const std::string& base_dir, 
   {
     const std::string w = source + ": robot";
     rejectUnknownKeys(r, {"urdf", "pose", "left_wheel_joint", "right_wheel_joint", "max_wheel_speed",
-                          "max_wheel_torque", "wheel_friction", "body_friction", "ir_sensors", "ir_range"}, w);
+                          "max_wheel_torque", "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker"}, w);
     const std::string urdf_file = get<std::string>(r, "urdf", "", w);
     if (urdf_file.empty()) throw WorldError(w + " needs 'urdf', the robot's URDF file");
     const std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
@@ -310,6 +310,15 @@ WorldSpec parseWorld(const std::string& yaml_text, const std::string& base_dir, 
       bool found = false;
       for (const auto& l : world.robot.links) found = found || l.name == ir;
       if (!found) throw WorldError(w + ".ir_sensors names '" + ir + "', which is not a link of " + urdf_path);
+    }
+    world.robot.heading_marker = get<std::string>(r, "heading_marker", "", w);
+    if (!world.robot.heading_marker.empty()) {
+      bool found = false;
+      for (const auto& l : world.robot.links) found = found || l.name == world.robot.heading_marker;
+      if (!found) {
+        throw WorldError(w + ".heading_marker names '" + world.robot.heading_marker + "', which is not a link of " +
+                         urdf_path);
+      }
     }
     deriveWheels(world.robot, urdf_path);
   }

@@ -49,6 +49,11 @@ xpersif::Scene toSceneMsg(const core::SceneDescription& scene) {
   xpersif::Scene msg;
   msg.world_frame = scene.world_frame;
   msg.header.frame_id = scene.world_frame;
+  msg.robot_root = scene.robot_root;
+  msg.robot_marker = scene.robot_marker;
+  msg.objects = scene.objects;
+  msg.arena_size_x = scene.arena_size_x;
+  msg.arena_size_y = scene.arena_size_y;
   for (const auto& node : scene.nodes) {
     xpersif::SceneNode n;
     n.name = node.name;
@@ -90,6 +95,11 @@ xpersif::Scene toSceneMsg(const core::SceneDescription& scene) {
 core::SceneDescription fromSceneMsg(const xpersif::Scene& msg) {
   core::SceneDescription scene;
   scene.world_frame = msg.world_frame;
+  scene.robot_root = msg.robot_root;
+  scene.robot_marker = msg.robot_marker;
+  scene.objects = msg.objects;
+  scene.arena_size_x = msg.arena_size_x;
+  scene.arena_size_y = msg.arena_size_y;
   for (const auto& n : msg.nodes) {
     core::SceneNode node;
     node.name = n.name;

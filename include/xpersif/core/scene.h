@@ -58,6 +58,12 @@ struct CameraModel {
 struct SceneDescription {
   std::string world_frame = "world";
   std::vector<SceneNode> nodes;  ///< parents come before their children
+  /// Roles, from the world file: the experimenter's catalogue of what is in the arena. Names, shapes, sizes
+  /// and colours only; masses, frictions and poses are for the loop to learn.
+  std::string robot_root;            ///< the robot's root link (a node), "" when the scene has no robot
+  std::string robot_marker;          ///< the robot link whose visual marks its heading from above, or ""
+  std::vector<std::string> objects;  ///< the objects to experiment with (top-level dynamic nodes), in file order
+  double arena_size_x = 0, arena_size_y = 0;  ///< the arena's inner extents, centred on the world origin
   std::vector<CameraModel> cameras;
 
   /// The node called @p name, or nullptr.

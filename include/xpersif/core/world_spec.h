@@ -71,6 +71,9 @@ struct RobotSpec {
   double wheel_friction = 1.0, body_friction = 0.3;
   std::vector<std::string> ir_sensors;  ///< links whose +x axis is an IR ray
   double ir_range = 0.06;
+  /// The link whose visual marks the heading from above (world file `heading_marker`); "" = the first link
+  /// below the root with exactly one box visual, if any.
+  std::string heading_marker;
 };
 
 struct ObjectSpec {
