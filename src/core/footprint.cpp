@@ -60,6 +60,10 @@ std::string Footprint::describe() const {
   return "a " + describeNumber(size_x) + " x " + describeNumber(size_y) + " m rectangle";
 }
 
+double maxPushOffset(const Footprint& footprint, const std::string& side) {
+  return footprint.isDisc() ? 0.5 * footprint.radius : footprint.halfWidth(side);
+}
+
 void worldHalfExtents(const Footprint& footprint, double yaw, double& half_x, double& half_y) {
   if (footprint.isDisc()) {
     half_x = half_y = footprint.radius;

@@ -42,6 +42,13 @@ struct Footprint {
   std::string describe() const;
 };
 
+/**
+ * @brief The largest |offset| of a push on @p side: where the contact may lie across the push, m. A rectangle:
+ *        half the pushed face's width. A disc: half its radius, so the contact stays on the disc's front and the
+ *        push still drives it forward rather than glancing off.
+ */
+double maxPushOffset(const Footprint& footprint, const std::string& side);
+
 /// Half the footprint's extent along world x and y when the object is turned by @p yaw (its bounding box).
 void worldHalfExtents(const Footprint& footprint, double yaw, double& half_x, double& half_y);
 
