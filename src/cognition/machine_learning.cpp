@@ -4,11 +4,11 @@
 
 #include "xpersif/core/experiment_samples.h"
 #include "xpersif/ros/experiment_conversions.h"
+#include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
 
 namespace {
-const std::vector<std::string> kDefaultIdentities{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
 
 core::Bindings pushBindings(const Experiment& e) {
   return {{"?object", e.object},
@@ -84,12 +84,12 @@ void MachineLearning::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   core::PushLearnerConfig config;
   config.one_hot_identity = true;
-  config.identities = kDefaultIdentities;
+  // The identities to encode: the objects of XPERSim's scene, in world-file order (~objects may restrict them).
+  config.identities = loadSetupCatalogue(nodeHandle(), pnh).names();
   pnh.param("features", config.feature_names, config.feature_names);
   std::map<std::string, double> scales;
   if (pnh.getParam("feature_scales", scales)) config.feature_scales = scales;
   pnh.param("one_hot_identity", config.one_hot_identity, config.one_hot_identity);
-  pnh.param("identities", config.identities, config.identities);
   int seed = 1;
   pnh.param("seed", seed, seed);
   pnh.param("ensemble_size", config.ensemble_size, config.ensemble_size);

@@ -1,17 +1,14 @@
 #include "xpersif/cognition/motivation.h"
 
 #include "xpersif/ros/experiment_conversions.h"
+#include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
-
-namespace {
-const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
-}  // namespace
 
 // ---- surprise -------------------------------------------------------------------------------------------
 
 void SurprisePart::configure(const ros::NodeHandle& parameters) {
-  double yaw_length = 0.02;
+  double yaw_length = default_yaw_length_;
   parameters.param("yaw_length", yaw_length, yaw_length);
   core::requireInRange(parameters.getNamespace() + "/yaw_length", yaw_length, 1e-4, 1.0);
   yaw_length_ = yaw_length;
@@ -31,6 +28,7 @@ std::optional<core::Surprise> SurprisePart::score(const ExperimentRecord& record
 void CuriosityPart::configure(const ros::NodeHandle& parameters) {
   core::CuriosityConfig config;
   config.objects = objects_;
+  config.footprints = footprints_;
   int bins = config.offset_bins, window = static_cast<int>(config.window), min_visits = static_cast<int>(config.min_visits);
   std::string measure = "error";
   parameters.param("offset_bins", bins, bins);
@@ -93,16 +91,20 @@ MotivationComponent::~MotivationComponent() {
 
 void MotivationComponent::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::vector<std::string> objects = kDefaultObjects;
-  pnh.param("objects", objects, objects);
-  core::requireMaxSize("~objects", objects.size(), 64);
-  for (std::size_t i = 0; i < objects.size(); ++i) {
-    core::requireIdentifier("~objects[" + std::to_string(i) + "]", objects[i], core::kMaxNameLength);
+  // The objects and their sizes come from XPERSim's scene (~objects may leave some out).
+  const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
+  core::requireMaxSize("~objects", catalogue.objects.size(), 64);
+  std::map<std::string, core::Footprint> footprints;
+  double half_sizes = 0;  // a turn of an object counts as the travel of a point at its half size
+  for (const auto& o : catalogue.objects) {
+    footprints[o.name] = o.footprint;
+    half_sizes += o.footprint.isDisc() ? o.footprint.radius : 0.5 * std::max(o.footprint.size_x, o.footprint.size_y);
   }
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    curiosity_.setObjects(objects);
+    curiosity_.setObjects(catalogue.names(), footprints);
+    surprise_.setDefaultYawLength(half_sizes / catalogue.objects.size());
     follow_ = follow;
     run_id_ = 0;
     scored_ = 0;

@@ -55,8 +55,8 @@ std::string checkExperiment(const std::string& field, const Experiment& e) {
   if (e.object.empty()) return field + ".object is empty; the pushed object's name is required";
   std::string message = checkMaxLength(field + ".object", e.object, kMaxNameLength);
   if (message.empty()) message = checkOneOf(field + ".side", e.side, pushSides());
-  if (message.empty()) message = checkInRange(field + ".offset", e.offset, -kMaxPushOffset, kMaxPushOffset);
-  if (message.empty()) message = checkInRange(field + ".distance", e.distance, 0.0, kMaxPushDistance);
+  if (message.empty()) message = checkInRange(field + ".offset", e.offset, -kMaxPushExtent, kMaxPushExtent);
+  if (message.empty()) message = checkInRange(field + ".distance", e.distance, 0.0, kMaxPushExtent);
   if (message.empty() && e.distance <= 0.0) {
     message = field + ".distance is " + describeNumber(e.distance) + "; it must be greater than zero";
   }

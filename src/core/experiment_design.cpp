@@ -18,12 +18,12 @@ namespace {
 
 std::string metres(double v) { return describeNumber(v) + " m"; }
 
-/// The reachable objects' names; throws ValidationError (and so changes nothing) when there are none.
-std::vector<std::string> reachableObjects(const DesignContext& context) {
+/// The reachable objects; throws ValidationError (and so changes nothing) when there are none.
+std::vector<DesignObject> reachableObjects(const DesignContext& context) {
   if (context.objects.empty()) {
     throw ValidationError("context.objects is empty; there is no object to design an experiment for");
   }
-  std::vector<std::string> names;
+  std::vector<DesignObject> names;
   std::set<std::string> seen;
   for (std::size_t i = 0; i < context.objects.size(); ++i) {
     const auto& o = context.objects[i];
@@ -32,7 +32,8 @@ std::vector<std::string> reachableObjects(const DesignContext& context) {
       throw ValidationError("context.objects[" + std::to_string(i) + "].name '" + o.name +
                             "' is listed twice; object names must be unique");
     }
-    if (o.reachable) names.push_back(o.name);
+    throwIfInvalid(o.footprint.check("context.objects[" + std::to_string(i) + "].footprint"));
+    if (o.reachable) names.push_back(o);
   }
   if (names.empty()) {
     std::string all;
@@ -42,11 +43,13 @@ std::vector<std::string> reachableObjects(const DesignContext& context) {
   return names;
 }
 
-ExperimentChoice sample(std::mt19937_64& rng, const std::vector<std::string>& objects, const DesignOptions& o) {
+ExperimentChoice sample(std::mt19937_64& rng, const std::vector<DesignObject>& objects, const DesignOptions& o) {
   ExperimentChoice c;
-  c.object = objects[std::uniform_int_distribution<std::size_t>(0, objects.size() - 1)(rng)];
+  const DesignObject& object = objects[std::uniform_int_distribution<std::size_t>(0, objects.size() - 1)(rng)];
+  c.object = object.name;
   c.side = o.sides[std::uniform_int_distribution<std::size_t>(0, o.sides.size() - 1)(rng)];
-  c.offset = std::uniform_real_distribution<double>(o.min_offset, o.max_offset)(rng);
+  c.offset = std::uniform_real_distribution<double>(o.min_offset, o.max_offset)(rng) *
+             maxPushOffset(object.footprint, c.side);
   c.distance = std::uniform_real_distribution<double>(o.min_distance, o.max_distance)(rng);
   return c;
 }
@@ -58,15 +61,15 @@ std::string ExperimentChoice::toString() const {
 }
 
 void DesignOptions::validate() const {
-  requireInRange("options.min_offset", min_offset, -kMaxPushOffset, kMaxPushOffset);
-  requireInRange("options.max_offset", max_offset, -kMaxPushOffset, kMaxPushOffset);
+  requireInRange("options.min_offset", min_offset, -1, 1);
+  requireInRange("options.max_offset", max_offset, -1, 1);
   if (min_offset > max_offset) {
-    throw ValidationError("options.min_offset (" + metres(min_offset) + ") is greater than options.max_offset (" +
-                          metres(max_offset) + ")");
+    throw ValidationError("options.min_offset (" + describeNumber(min_offset) +
+                          ") is greater than options.max_offset (" + describeNumber(max_offset) + ")");
   }
   requirePositive("options.min_distance", min_distance);
-  requireInRange("options.min_distance", min_distance, 0, kMaxPushDistance);
-  requireInRange("options.max_distance", max_distance, 0, kMaxPushDistance);
+  requireInRange("options.min_distance", min_distance, 0, kMaxPushExtent);
+  requireInRange("options.max_distance", max_distance, 0, kMaxPushExtent);
   if (min_distance > max_distance) {
     throw ValidationError("options.min_distance (" + metres(min_distance) +
                           ") is greater than options.max_distance (" + metres(max_distance) + ")");
@@ -77,13 +80,12 @@ void DesignOptions::validate() const {
   }
   if (grid_offsets.empty()) throw ValidationError("options.grid_offsets is empty; list at least one offset");
   for (std::size_t i = 0; i < grid_offsets.size(); ++i) {
-    requireInRange("options.grid_offsets[" + std::to_string(i) + "]", grid_offsets[i], -kMaxPushOffset,
-                   kMaxPushOffset);
+    requireInRange("options.grid_offsets[" + std::to_string(i) + "]", grid_offsets[i], -1, 1);
   }
   if (grid_distances.empty()) throw ValidationError("options.grid_distances is empty; list at least one distance");
   for (std::size_t i = 0; i < grid_distances.size(); ++i) {
     requirePositive("options.grid_distances[" + std::to_string(i) + "]", grid_distances[i]);
-    requireInRange("options.grid_distances[" + std::to_string(i) + "]", grid_distances[i], 0, kMaxPushDistance);
+    requireInRange("options.grid_distances[" + std::to_string(i) + "]", grid_distances[i], 0, 1);
   }
   if (candidates < 1 || candidates > 10000) {
     throw ValidationError("options.candidates is " + std::to_string(candidates) + "; it must lie in [1, 10000]");
@@ -125,10 +127,10 @@ ExperimentChoice GridDesign::next(const DesignContext& context) {
     const std::size_t n_off = options_.grid_offsets.size();
     ExperimentChoice c;
     c.object = object.name;
-    c.distance = options_.grid_distances[rest % n_dist];
+    c.distance = options_.grid_distances[rest % n_dist] * options_.max_distance;
     rest /= n_dist;
-    c.offset = options_.grid_offsets[rest % n_off];
     c.side = options_.sides[rest / n_off];
+    c.offset = options_.grid_offsets[rest % n_off] * maxPushOffset(object.footprint, c.side);
     c.rationale = "grid cell " + std::to_string(cell + 1) + " of " + std::to_string(total);
     cursor_ = (cell + 1) % total;
     return c;

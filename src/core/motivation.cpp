@@ -43,6 +43,11 @@ CuriosityMap::CuriosityMap(CuriosityConfig config) : config_(std::move(config)) 
   for (const auto& object : c.objects) {
     if (object.empty()) throw ValidationError("curiosity objects has an empty name");
     if (!unique.insert(object).second) throw ValidationError("curiosity objects lists '" + object + "' twice");
+    const auto footprint = c.footprints.find(object);
+    if (footprint == c.footprints.end()) {
+      throw ValidationError("curiosity footprints has no entry for '" + object + "'; its offsets cannot be binned");
+    }
+    throwIfInvalid(footprint->second.check("footprint of '" + object + "'"));
   }
   if (c.sides.empty()) throw ValidationError("curiosity sides is empty; give at least one side");
   std::set<std::string> sides;
@@ -65,19 +70,20 @@ CuriosityMap::CuriosityMap(CuriosityConfig config) : config_(std::move(config)) 
 RegionKey CuriosityMap::regionOf(const Experiment& experiment) const {
   requireExperiment("experiment", experiment);
   RegionKey key{experiment.object, experiment.side, 0};
-  const double unit = (experiment.offset + kMaxPushOffset) / (2.0 * kMaxPushOffset);  // [0, 1]
+  const auto footprint = config_.footprints.find(experiment.object);
+  if (footprint == config_.footprints.end()) throwIfInvalid(checkKnownName("experiment.object", experiment.object, config_.objects));
+  const double limit = maxPushOffset(footprint->second, experiment.side);
+  const double unit = (experiment.offset + limit) / (2.0 * limit);  // [0, 1]
   key.offset_bin = std::clamp(static_cast<int>(std::floor(unit * config_.offset_bins)), 0, config_.offset_bins - 1);
   requireRegion(key);
   return key;
 }
 
-std::pair<double, double> CuriosityMap::offsetRange(int bin) const {
-  if (bin < 0 || bin >= config_.offset_bins) {
-    throw ValidationError("offset bin " + std::to_string(bin) + " is not in [0, " +
-                          std::to_string(config_.offset_bins - 1) + "]");
-  }
-  const double width = 2.0 * kMaxPushOffset / config_.offset_bins;
-  return {-kMaxPushOffset + bin * width, -kMaxPushOffset + (bin + 1) * width};
+std::pair<double, double> CuriosityMap::offsetRange(const RegionKey& region) const {
+  requireRegion(region);
+  const double limit = maxPushOffset(config_.footprints.at(region.object), region.side);
+  const double width = 2.0 * limit / config_.offset_bins;
+  return {-limit + region.offset_bin * width, -limit + (region.offset_bin + 1) * width};
 }
 
 void CuriosityMap::requireRegion(const RegionKey& region) const {

@@ -576,6 +576,7 @@ void PhysicsWorld::injectFault(const std::string& body, bool explode) {
 SceneDescription PhysicsWorld::buildScene() const {
   SceneDescription scene;
   const ArenaSpec& a = spec_.arena;
+  scene.world_file = spec_.source;
   scene.arena_size_x = a.size_x;
   scene.arena_size_y = a.size_y;
   if (!spec_.robot.links.empty()) scene.robot_root = spec_.robot.links.front().name;

@@ -4,12 +4,9 @@
 #include <set>
 
 #include "xpersif/decision/decision_common.h"
+#include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
-
-namespace {
-const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
-}
 
 DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/DesignOfExperimentsNodelet") {
@@ -57,11 +54,13 @@ void DesignOfExperiments::onConfigure() {
   std::string design = "curiosity", features_topic = "vision/features", motivation_topic = "motivation/motivation";
   int seed = 1, candidates = 32, offset_bins = 3;
   double optimistic = 1.0;
-  std::vector<std::string> objects = kDefaultObjects;
+  // The objects and the push limits come from XPERSim's scene (~objects may leave some out).
+  const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
   core::DesignOptions options;
+  options.min_distance = catalogue.minPushDistance();
+  options.max_distance = catalogue.maxPushDistance();
   pnh.param("design", design, design);
   pnh.param("seed", seed, seed);
-  pnh.param("objects", objects, objects);
   pnh.param("min_offset", options.min_offset, options.min_offset);
   pnh.param("max_offset", options.max_offset, options.max_offset);
   pnh.param("min_distance", options.min_distance, options.min_distance);
@@ -84,7 +83,8 @@ void DesignOfExperiments::onConfigure() {
   }
   auto made = core::makeDesign(design, static_cast<unsigned long>(seed), options);  // throws for bad options
   core::CuriosityConfig regions;
-  regions.objects = objects;
+  regions.objects = catalogue.names();
+  for (const auto& object : catalogue.objects) regions.footprints[object.name] = object.footprint;
   regions.offset_bins = offset_bins;
   auto map = std::make_unique<core::CuriosityMap>(regions);  // throws for bad objects or bins
 
@@ -98,7 +98,8 @@ void DesignOfExperiments::onConfigure() {
     seed_ = static_cast<unsigned long>(seed);
     options_ = options;
     regions_ = std::move(map);
-    objects_ = objects;
+    objects_ = catalogue.names();
+    footprints_ = regions.footprints;
     optimistic_ = optimistic;
     designed_ = 0;
     curiosity_.clear();
@@ -163,7 +164,7 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   }
   core::DesignContext context;
   const std::set<std::string> can(reachable.begin(), reachable.end());
-  for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0});
+  for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0, footprints_.at(name)});
   context.history_count = designed_;
   // Curiosity of a candidate: MOTIVATION's value for its region, optimistic where it has none.
   context.curiosity = [this](const core::ExperimentChoice& c) {

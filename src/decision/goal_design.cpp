@@ -4,12 +4,11 @@
 #include <cmath>
 
 #include "xpersif/decision/decision_common.h"
-#include "xpersif/embodiment/embodiment_setup.h"
+#include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
 
 namespace {
-const std::vector<std::string> kDefaultObjects{"red_cube", "green_cube", "blue_cube", "yellow_cube"};
 
 std::string checkScene(const FeatureVector& scene) {
   std::string why = core::checkMaxSize("scene.objects", scene.objects.size(), core::kMaxObjectsPerFeatureVector);
@@ -79,13 +78,19 @@ GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
 void GoalDesign::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   int seed = 1, random_candidates = 64;
-  std::vector<std::string> objects = kDefaultObjects;
-  double min_target = 0.05, max_target = 0.12, wall_clearance = 0.08, object_clearance = 0.06;
-  std::vector<double> offsets{-0.015, -0.0075, 0.0, 0.0075, 0.015};
-  std::vector<double> distances{0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14};
+  // Objects, the arena and every distance below come from XPERSim's scene (~objects may leave some out).
+  const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
+  double largest = 0;  // the largest object's circumradius
+  for (const auto& o : catalogue.objects) largest = std::max(largest, o.footprint.circumradius());
+  const double max_push = catalogue.maxPushDistance();
+  // Targets one to several pushes away; a target keeps the object's own size plus room for the robot to reach
+  // round it from the walls, and an object's width from the others.
+  double min_target = max_push / 3, max_target = 0.8 * max_push;
+  double wall_clearance = largest + 1.5 * catalogue.robot_radius, object_clearance = 2 * largest;
+  std::vector<double> offsets{-0.75, -0.375, 0.0, 0.375, 0.75};      // fractions of each face's offset limit
+  std::vector<double> distances{0.15, 0.3, 0.45, 0.6, 0.75, 0.9};   // fractions of the longest push
   std::string model_topic = "machine_learning/model", notions_topic = "machine_learning/notions";
   pnh.param("seed", seed, seed);
-  pnh.param("objects", objects, objects);
   pnh.param("min_target_distance", min_target, min_target);
   pnh.param("max_target_distance", max_target, max_target);
   pnh.param("wall_clearance", wall_clearance, wall_clearance);
@@ -101,18 +106,20 @@ void GoalDesign::onConfigure() {
   core::requireInRange("~max_target_distance", max_target, min_target, 1.0);
   core::requireInRange("~wall_clearance", wall_clearance, 0.0, 1.0);
   core::requireInRange("~object_clearance", object_clearance, 0.0, 1.0);
-  if (objects.empty()) throw core::ValidationError("~objects is empty; list the objects goals may use");
-  for (double o : offsets) core::requireInRange("~offsets entry", o, -core::kMaxPushOffset, core::kMaxPushOffset);
-  for (double d : distances) core::requireInRange("~distances entry", d, 1e-3, core::kMaxPushDistance);
+  for (double o : offsets) core::requireInRange("~offsets entry", o, -1, 1);
+  for (double d : distances) core::requireInRange("~distances entry", d, 1e-3, 1);
   if (offsets.empty() && distances.empty() && random_candidates == 0) {
     throw core::ValidationError("~offsets, ~distances and ~random_candidates leave no candidate push");
   }
-  const EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   model_sub_.shutdown();  // outside the lock: a callback may hold it
   notions_sub_.shutdown();
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    objects_ = objects;
+    objects_ = catalogue.names();
+    footprints_.clear();
+    for (const auto& o : catalogue.objects) footprints_[o.name] = o.footprint;
+    max_push_ = max_push;
+    min_push_ = catalogue.minPushDistance();
     min_target_ = min_target;
     max_target_ = max_target;
     wall_clearance_ = wall_clearance;
@@ -120,7 +127,8 @@ void GoalDesign::onConfigure() {
     offsets_ = offsets;
     distances_ = distances;
     random_candidates_ = random_candidates;
-    arena_ = setup.arena;
+    arena_.size_x = catalogue.arena_size_x;
+    arena_.size_y = catalogue.arena_size_y;
     rng_.seed(static_cast<std::uint64_t>(seed));
     learner_.reset();
     model_problem_.clear();
@@ -221,17 +229,22 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
   std::lock_guard<std::mutex> lock(mutex_);
   if (!learner_) throw std::runtime_error("no model");
   const core::ObjectFeatures object = fromMsg(*findObject(request.scene, request.object));
+  const auto footprint = footprints_.find(request.object);
+  if (footprint == footprints_.end()) {
+    throw core::ValidationError("object '" + request.object + "' is not one of ~objects " + joinNames(objects_));
+  }
   std::vector<core::Experiment> candidates;
   for (const auto& side : core::pushSides()) {
+    const double limit = core::maxPushOffset(footprint->second, side);
     for (double offset : offsets_) {
-      for (double distance : distances_) candidates.push_back({request.object, side, offset, distance});
+      for (double distance : distances_) candidates.push_back({request.object, side, offset * limit, distance * max_push_});
     }
   }
   std::uniform_int_distribution<std::size_t> side(0, core::pushSides().size() - 1);
-  std::uniform_real_distribution<double> offset(-0.015, 0.015), distance(0.01, core::kMaxPushDistance);
+  std::uniform_real_distribution<double> offset(-1.0, 1.0), distance(min_push_, max_push_);
   for (int i = 0; i < random_candidates_; ++i) {
     const std::string& s = core::pushSides()[side(rng_)];
-    const double o = offset(rng_);
+    const double o = offset(rng_) * core::maxPushOffset(footprint->second, s);
     candidates.push_back({request.object, s, o, distance(rng_)});
   }
   double best = INFINITY;

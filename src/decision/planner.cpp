@@ -88,7 +88,7 @@ Planner::Planner(ros::NodeHandle nh, ros::NodeHandle private_nh)
   declared.parameters = {"?goal"};
   declared.preconditions = {
       {"contracts_loaded(operators)", "the contracts of every component in ~components must have been read"},
-      {"ground(?goal)", "the goal must be one or more ground literals, such as pushed(red_cube, -x, 0.01, 0.05)"}};
+      {"ground(?goal)", "the goal must be one or more ground literals, such as pushed(box_1, -x, 0.01, 0.05)"}};
   declared.effects = {"planned(?goal)"};
   ContractChecker<MakePlan::Request> contract(declared);
   contract

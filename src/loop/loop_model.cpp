@@ -1,5 +1,7 @@
 #include "xpersif/loop/loop_model.h"
 
+#include "xpersif/ros/setup_loader.h"
+
 #include <actionlib/client/simple_action_client.h>
 
 #include <algorithm>
@@ -139,28 +141,31 @@ void LoopModel::onConfigure() {
   std::string pose_source = "observation";
   int retries = 1, max_goal_pushes = 6;
   bool tidy = true;
-  double tidy_margin = 0.13, goal_tolerance = 0.05, learning_timeout = 20.0;
+  // Tidying's margins are derived from the objects, the robot and the arena (SetupCatalogue) unless set.
+  double tidy_margin = -1, goal_tolerance = 0.05, learning_timeout = 20.0;
   pnh.param("pose_source", pose_source, pose_source);
   pnh.param("retries", retries, retries);
   pnh.param("tidy", tidy, tidy);
   bool arrange = true;
   pnh.param("arrange_at_start", arrange, arrange);
   pnh.param("tidy_margin", tidy_margin, tidy_margin);
-  double tidy_spacing = 0.14;
+  double tidy_spacing = -1;
   pnh.param("tidy_spacing", tidy_spacing, tidy_spacing);
-  core::requireInRange("~tidy_spacing", tidy_spacing, 0.0, 0.4);
+  const double arena_half = 0.5 * std::min(setup.arena.size_x, setup.arena.size_y);
+  if (tidy_spacing >= 0) core::requireInRange("~tidy_spacing", tidy_spacing, 0.0, 2 * arena_half);
   pnh.param("goal_tolerance", goal_tolerance, goal_tolerance);
   pnh.param("max_goal_pushes", max_goal_pushes, max_goal_pushes);
   pnh.param("learning_timeout", learning_timeout, learning_timeout);
   core::requireOneOf("~pose_source", pose_source, {"odometry", "observation"});
   core::requireInRange("~retries", retries, 0, 10);
-  core::requireInRange("~tidy_margin", tidy_margin, 0.0, 0.2);
+  if (tidy_margin >= 0) core::requireInRange("~tidy_margin", tidy_margin, 0.0, arena_half);
   core::requireInRange("~goal_tolerance", goal_tolerance, 0.005, 0.5);
   core::requireInRange("~max_goal_pushes", max_goal_pushes, 1, 50);
   core::requirePositive("~learning_timeout", learning_timeout);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     setup_ = setup;
+    catalogue_.reset();
     pose_source_ = pose_source;
     retries_ = retries;
     tidy_ = tidy;
@@ -250,8 +255,23 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
   std::vector<std::pair<double, double>> occupied;
   for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
   if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
-  const double hx = setup_.arena.size_x / 2 - tidy_margin_, hy = setup_.arena.size_y / 2 - tidy_margin_;
-  for (const auto& [name, size] : setup_.object_sizes) {
+  if (!catalogue_) {
+    try {
+      catalogue_ = loadSetupCatalogue(nodeHandle(), privateNodeHandle());
+    } catch (const std::exception& e) {
+      ROS_WARN("%s: cannot tidy the arena: %s", name().c_str(), e.what());
+      return;
+    }
+  }
+  const double margin = tidy_margin_ >= 0 ? tidy_margin_ : catalogue_->wallMargin();
+  const double spacing = tidy_spacing_ >= 0 ? tidy_spacing_ : catalogue_->objectSpacing();
+  const double hx = catalogue_->arena_size_x / 2 - margin, hy = catalogue_->arena_size_y / 2 - margin;
+  if (hx <= 0 || hy <= 0) {
+    ROS_WARN("%s: cannot tidy the arena: a margin of %.3f m from the walls leaves no room", name().c_str(), margin);
+    return;
+  }
+  const std::vector<std::string> names = catalogue_->names();
+  for (const auto& name : names) {
     const ObjectFeatures* o = findObject(scene, name);
     if (!o || std::abs(o->position.x) > hx || std::abs(o->position.y) > hy) {
       misplaced.push_back(name);
@@ -259,8 +279,8 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
     }
     // Cubes pushed together leave no room for the robot at their faces: the later one of a close pair moves.
     for (const auto& other : scene.objects) {
-      if (other.name >= name || !setup_.object_sizes.count(other.name)) continue;
-      if (std::hypot(other.position.x - o->position.x, other.position.y - o->position.y) < tidy_spacing_) {
+      if (other.name >= name || !catalogue_->find(other.name)) continue;
+      if (std::hypot(other.position.x - o->position.x, other.position.y - o->position.y) < spacing) {
         misplaced.push_back(name);
         break;
       }
@@ -273,11 +293,11 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
   }
   if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
   for (const auto& name : misplaced) {
-    std::uniform_real_distribution<double> ux(-hx + 0.02, hx - 0.02), uy(-hy + 0.02, hy - 0.02);
+    std::uniform_real_distribution<double> ux(-hx, hx), uy(-hy, hy);
     for (int attempt = 0; attempt < 200; ++attempt) {
       const double x = ux(rng_), y = uy(rng_);
       bool free = true;
-      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > tidy_spacing_;
+      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > spacing;
       if (!free) continue;
       SetPose place;
       place.request.name = name;

@@ -219,7 +219,7 @@ int trigger(const std::string& operation) {
 int next(const std::vector<std::string>& rest) {
   xpersif::SetExperiment call;
   if (!parseExperiment(rest, 0, &call.request.experiment)) {
-    std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next red_cube -x 0.01 0.05\n";
+    std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05\n";
     return 2;
   }
   const std::string service = loop_name + "/set_next_experiment";

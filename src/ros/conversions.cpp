@@ -49,6 +49,7 @@ xpersif::Scene toSceneMsg(const core::SceneDescription& scene) {
   xpersif::Scene msg;
   msg.world_frame = scene.world_frame;
   msg.header.frame_id = scene.world_frame;
+  msg.world_file = scene.world_file;
   msg.robot_root = scene.robot_root;
   msg.robot_marker = scene.robot_marker;
   msg.objects = scene.objects;
@@ -95,6 +96,7 @@ xpersif::Scene toSceneMsg(const core::SceneDescription& scene) {
 core::SceneDescription fromSceneMsg(const xpersif::Scene& msg) {
   core::SceneDescription scene;
   scene.world_frame = msg.world_frame;
+  scene.world_file = msg.world_file;
   scene.robot_root = msg.robot_root;
   scene.robot_marker = msg.robot_marker;
   scene.objects = msg.objects;

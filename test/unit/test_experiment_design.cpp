@@ -12,9 +12,12 @@ using namespace xpersif::core;
 
 namespace {
 
+const Footprint kCube = Footprint::rectangle(0.04, 0.04);  // offset limit 0.02 m on every face
+
 DesignContext cubes() {
   DesignContext c;
-  c.objects = {{"red_cube", true}, {"green_cube", true}, {"yellow_cube", true}, {"blue_cube", true}};
+  c.objects = {{"red_cube", true, kCube}, {"green_cube", true, kCube}, {"yellow_cube", true, kCube},
+               {"blue_cube", true, kCube}};
   return c;
 }
 
@@ -61,8 +64,9 @@ TEST(ExperimentDesign, SameSeedSameExperiments) {
 
 TEST(RandomDesign, StaysInBoundsAndCoversObjectsAndSides) {
   DesignOptions o;
-  o.min_offset = -0.005;
-  o.max_offset = 0.012;
+  o.min_offset = -0.25;  // fractions of the 0.02 m offset limit: -0.005 .. 0.012 m
+  o.max_offset = 0.6;
+  const double limit = 0.02;
   o.min_distance = 0.04;
   o.max_distance = 0.07;
   o.sides = {"+x", "-y"};
@@ -71,8 +75,8 @@ TEST(RandomDesign, StaysInBoundsAndCoversObjectsAndSides) {
   std::map<std::string, int> objects, sides;
   double lo_off = 1, hi_off = -1, lo_dist = 1, hi_dist = -1;
   for (const auto& e : run(d, c, 2000)) {
-    ASSERT_GE(e.offset, o.min_offset);
-    ASSERT_LE(e.offset, o.max_offset);
+    ASSERT_GE(e.offset, o.min_offset * limit);
+    ASSERT_LE(e.offset, o.max_offset * limit);
     ASSERT_GE(e.distance, o.min_distance);
     ASSERT_LE(e.distance, o.max_distance);
     ++objects[e.object];
@@ -88,8 +92,8 @@ TEST(RandomDesign, StaysInBoundsAndCoversObjectsAndSides) {
   EXPECT_EQ(sides.count("-y"), 1u);
   for (const auto& [name, n] : objects) EXPECT_GT(n, 400) << name;  // 500 expected each
   // Uniform: the samples spread over the whole range.
-  EXPECT_LT(lo_off, o.min_offset + 0.001);
-  EXPECT_GT(hi_off, o.max_offset - 0.001);
+  EXPECT_LT(lo_off, o.min_offset * limit + 0.001);
+  EXPECT_GT(hi_off, o.max_offset * limit - 0.001);
   EXPECT_LT(lo_dist, o.min_distance + 0.002);
   EXPECT_GT(hi_dist, o.max_distance - 0.002);
 }
@@ -104,8 +108,10 @@ TEST(GridDesign, CoversEveryCellOnceThenRepeatsInOrder) {
   EXPECT_EQ(cells.size(), 96u);
   for (const auto& object : {"red_cube", "green_cube", "yellow_cube", "blue_cube"}) {
     for (const auto& side : kPushSides) {
-      for (double offset : {-0.015, 0.0, 0.015}) {
-        for (double distance : {0.03, 0.06}) EXPECT_EQ(cells.count({object, side, offset, distance}), 1u);
+      for (double offset : {-0.75 * 0.02, 0.0, 0.75 * 0.02}) {  // default grid fractions of the offset limit
+        for (double distance : {0.2 * 0.15, 0.4 * 0.15}) {         // and of the longest push
+          EXPECT_EQ(cells.count({object, side, offset, distance}), 1u);
+        }
       }
     }
   }
@@ -278,17 +284,17 @@ TEST(ExperimentDesign, FactoryAndOptionsAreValidated) {
     }
   };
   DesignOptions o;
-  o.min_offset = -0.03;
+  o.min_offset = -1.5;
   expectInvalid(o, "options.min_offset");
   o = {};
-  o.min_offset = 0.01;
+  o.min_offset = 0.5;
   o.max_offset = 0.0;
   expectInvalid(o, "options.min_offset");
   o = {};
   o.min_distance = 0.0;
   expectInvalid(o, "options.min_distance");
   o = {};
-  o.max_distance = 0.2;
+  o.max_distance = 20;
   expectInvalid(o, "options.max_distance");
   o = {};
   o.max_distance = std::nan("");
@@ -300,7 +306,7 @@ TEST(ExperimentDesign, FactoryAndOptionsAreValidated) {
   o.grid_distances = {0.03, 0.0};
   expectInvalid(o, "options.grid_distances[1]");
   o = {};
-  o.grid_offsets = {0.025};
+  o.grid_offsets = {1.25};
   expectInvalid(o, "options.grid_offsets[0]");
   o = {};
   o.epsilon = 1.5;

@@ -42,6 +42,7 @@ namespace {
 CuriosityConfig twoObjects() {
   CuriosityConfig c;
   c.objects = {"red_cube", "blue_cube"};
+  c.footprints = {{"red_cube", Footprint::rectangle(0.04, 0.04)}, {"blue_cube", Footprint::rectangle(0.04, 0.04)}};
   c.offset_bins = 3;
   c.window = 5;
   return c;
@@ -55,7 +56,7 @@ TEST(Curiosity, RegionsCoverTheExperimentSpace) {
   EXPECT_EQ(map.regionOf({"red_cube", "-x", -0.0067, 0.1}).offset_bin, 0);
   EXPECT_EQ(map.regionOf({"red_cube", "-x", 0.0, 0.1}).offset_bin, 1);
   EXPECT_EQ(map.regionOf({"red_cube", "+y", 0.02, 0.1}), (RegionKey{"red_cube", "+y", 2}));
-  const auto range = map.offsetRange(1);
+  const auto range = map.offsetRange(RegionKey{"red_cube", "-x", 1});
   EXPECT_NEAR(range.first, -0.02 / 3, 1e-12);
   EXPECT_NEAR(range.second, 0.02 / 3, 1e-12);
   EXPECT_EQ((RegionKey{"red_cube", "-x", 2}).toString(), "red_cube/-x/2");
@@ -133,7 +134,7 @@ TEST(Curiosity, RejectsInvalidInput) {
   EXPECT_THROW(map.record(RegionKey{"red_cube", "-x", 0}, std::nan("")), ValidationError);
   EXPECT_THROW(map.regionOf({"red_cube", "-x", 0.05, 0.1}), ValidationError);
   EXPECT_THROW(map.regionOf({"green_cube", "-x", 0.0, 0.1}), ValidationError);
-  EXPECT_THROW(map.offsetRange(3), ValidationError);
+  EXPECT_THROW(map.offsetRange(RegionKey{"red_cube", "-x", 3}), ValidationError);
   for (const auto& r : map.regions()) EXPECT_EQ(r.count, 0u);  // nothing was recorded
 
   CuriosityConfig bad = twoObjects();

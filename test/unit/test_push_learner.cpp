@@ -43,7 +43,7 @@ std::vector<PushSample> pushes(int n, std::uint64_t seed, const std::vector<std:
   for (int i = 0; i < n; ++i) {
     const Cube& cube = kCubes[rng.uniform(0, 4)];
     const std::string side = sides[rng.uniform(0, static_cast<int>(sides.size()))];
-    const double offset = rng.uniform(-kMaxPushOffset, kMaxPushOffset);
+    const double offset = rng.uniform(-0.02, 0.02);  // a 4 cm cube's offset limit
     const double distance = rng.uniform(min_distance, max_distance);
     Outcome o = truth(cube, offset, distance);
     if (cube.k > 0) {

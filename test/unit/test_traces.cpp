@@ -43,8 +43,8 @@ std::vector<ExperimentRecord> syntheticRecords(int n, std::uint64_t seed) {
     r.id = i + 1;
     r.run_id = 7;
     r.seq = i + 1;
-    r.experiment = {cube.name, pushSides()[rng.uniform(0, 4)], rng.uniform(-kMaxPushOffset, kMaxPushOffset),
-                    rng.uniform(0.01, kMaxPushDistance)};
+    r.experiment = {cube.name, pushSides()[rng.uniform(0, 4)], rng.uniform(-0.02, 0.02),
+                    rng.uniform(0.01, 0.15)};  // a 4 cm cube's offsets, pushes up to 15 cm
     r.before.stamp = 2.0 * i + 0.5;
     for (const auto& c : kCubes) {
       ObjectFeatures o;

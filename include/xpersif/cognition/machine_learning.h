@@ -14,14 +14,15 @@
  *
  * The learner's input: push direction, offset, distance, the object's `hue` and `size` (VISION's colour and
  * edge length: objects that look alike are expected to move alike, so what is learned about one cube carries
- * over to a similar one), and a one-hot code of the object's identity over `~identities` (the four cubes by
- * default), because cubes of the same look may differ in mass and friction, which no camera sees.
+ * over to a similar one), and a one-hot code of the object's identity over the objects of XPERSim's scene (in
+ * world-file order; `~objects` restricts them), because objects of the same look may differ in mass and
+ * friction, which no camera sees.
  *
  * Operation `predict` (Predict): the predicted dx, dy, dyaw (mean and std) of a push of an object with the
  * given features, and how many samples the model has.
  *
  * Parameters (configure): `~features` ([hue, size]), `~feature_scales` (dict, default {hue: 30, size: 0.01}),
- * `~one_hot_identity` (true), `~identities` ([red_cube, green_cube, blue_cube, yellow_cube]), `~seed` (1),
+ * `~one_hot_identity` (true), `~objects` (every object of the scene), `~seed` (1),
  * `~ensemble_size` (8), `~trees_per_member` (16), `~restore` (true), `~restore_timeout` (30 s),
  * `~experiments_topic` (knowledge_base/experiments), `~run_topic` (knowledge_base/run), `~knowledge_base`
  * (knowledge_base: the namespace of its operations).

@@ -4,8 +4,8 @@
  *        most (core/motivation.h: surprise, and curiosity as Intelligent Adaptive Curiosity's learning progress).
  *
  * Parts: `surprise` (the prediction error of a record: core::surprise of its predicted_mean/std against its
- * outcome; `~surprise/yaw_length`, m, default 0.02) and `curiosity` (core::CuriosityMap over `~objects` (default
- * the four cubes) x sides -x +x -y +y x `~curiosity/offset_bins` (3) offset bins; `~curiosity/window` (5),
+ * outcome; `~surprise/yaw_length`, m, default the objects' mean half-size) and `curiosity` (core::CuriosityMap
+ * over `~objects` (default every object of XPERSim's scene, with their footprints) x sides -x +x -y +y x `~curiosity/offset_bins` (3) offset bins; `~curiosity/window` (5),
  * `~curiosity/min_visits` (2); `~curiosity/measure`: which error it records, `error` (metres, default) or
  * `normalized` (in predicted stds)).
  *
@@ -18,6 +18,7 @@
  */
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -36,9 +37,11 @@ class SurprisePart : public ComponentPart {
   void configure(const ros::NodeHandle& parameters) override;
   /// The surprise of a done record with a prediction; nothing for others.
   std::optional<core::Surprise> score(const ExperimentRecord& record) const;
+  /// ~surprise/yaw_length's default: the objects' mean half-size (set before configure).
+  void setDefaultYawLength(double metres) { default_yaw_length_ = metres; }
 
  private:
-  double yaw_length_ = 0.02;
+  double yaw_length_ = 0.02, default_yaw_length_ = 0.02;
 };
 
 /// Part `curiosity`: the regions' error histories.
@@ -46,7 +49,10 @@ class CuriosityPart : public ComponentPart {
  public:
   CuriosityPart() : ComponentPart("curiosity") {}
   /// The objects the robot may push (set by the aggregate from `~objects` before configure).
-  void setObjects(std::vector<std::string> objects) { objects_ = std::move(objects); }
+  void setObjects(std::vector<std::string> objects, std::map<std::string, core::Footprint> footprints) {
+    objects_ = std::move(objects);
+    footprints_ = std::move(footprints);
+  }
   void configure(const ros::NodeHandle& parameters) override;
   void shutdown() override { map_.reset(); }
   /// Forget every region's history (a new run).
@@ -58,6 +64,7 @@ class CuriosityPart : public ComponentPart {
 
  private:
   std::vector<std::string> objects_;
+  std::map<std::string, core::Footprint> footprints_;
   core::CuriosityConfig config_;
   bool normalized_ = false;
   std::unique_ptr<core::CuriosityMap> map_;

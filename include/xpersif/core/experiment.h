@@ -5,16 +5,17 @@
  *        it, its outcome, a prediction of that outcome, and a notion (a learned symbolic fact).
  *
  * Conventions (metres, radians, right-handed, z up):
- *  - An EXPERIMENT is one push. `side` is the face of the cube the robot pushes on, in the cube's own frame:
- *    "-x", "+x", "-y" or "+y". The robot pushes along the face's inward normal: on "-x" it pushes towards +x
- *    of the cube, on "+y" towards -y, and so on.
+ *  - An EXPERIMENT is one push. `side` is the face of the object the robot pushes on, in the object's own
+ *    frame: "-x", "+x", "-y" or "+y". The robot pushes along the face's inward normal: on "-x" it pushes
+ *    towards +x of the object, on "+y" towards -y, and so on. A round object (upright cylinder, sphere) has no
+ *    faces: its frame is the world's (its yaw cannot be seen) and the side names the push direction.
  *  - The PUSH FRAME has its x axis along that push direction and its y axis 90 degrees to the left of it,
- *    both fixed to the cube's pose BEFORE the push.
- *  - `offset` is where the contact point lies along the face, measured from the face centre along the push
- *    frame's y axis (positive = left of the centre, looking along the push), in [-kMaxPushOffset,
- *    kMaxPushOffset].
- *  - `distance` is how far the robot drives after contact, in (0, kMaxPushDistance].
- *  - The OUTCOME is the cube's motion in the push frame: dx along the push, dy to its left, dyaw the change
+ *    both fixed to the object's pose BEFORE the push.
+ *  - `offset` is where the contact point lies across the push, measured from the face centre along the push
+ *    frame's y axis (positive = left of the centre, looking along the push), within the object's limit
+ *    (maxPushOffset, footprint.h).
+ *  - `distance` is how far the robot drives after contact, within the set-up's limits (setup.h).
+ *  - The OUTCOME is the object's motion in the push frame: dx along the push, dy to its left, dyaw the change
  *    of heading wrapped to (-pi, pi]. computeOutcome() derives it from the before and after poses.
  */
 #pragma once

@@ -18,9 +18,8 @@
 #include <string>
 #include <vector>
 
-// kMaxPushOffset (half the 4 cm face) and kMaxPushDistance (longest push after contact) come from here, so
-// that a translation unit may include this header and experiment.h (motivation.h, push_learner.h) together.
 #include "xpersif/core/experiment.h"
+#include "xpersif/core/footprint.h"
 
 namespace xpersif::core {
 
@@ -42,6 +41,7 @@ struct ExperimentChoice {
 struct DesignObject {
   std::string name;
   bool reachable = true;  ///< false: the robot cannot get to it now (e.g. against a wall); never chosen
+  Footprint footprint;    ///< its offsets are fractions of maxPushOffset(footprint, side)
 };
 
 struct DesignContext {
@@ -51,15 +51,19 @@ struct DesignContext {
   std::function<double(const ExperimentChoice&)> curiosity;
 };
 
+/// Offsets are fractions in [-1, 1] of each pushed face's offset limit (maxPushOffset, footprint.h), so one
+/// set of options fits objects of every shape and size; distances are metres, normally the set-up's
+/// (SetupCatalogue::minPushDistance / maxPushDistance).
 struct DesignOptions {
-  double min_offset = -kMaxPushOffset;  ///< within [-kMaxPushOffset, kMaxPushOffset]
-  double max_offset = kMaxPushOffset;
-  double min_distance = 0.01;  ///< within (0, kMaxPushDistance]
-  double max_distance = kMaxPushDistance;
+  double min_offset = -1.0;  ///< fraction of the face's offset limit, in [-1, 1]
+  double max_offset = 1.0;
+  double min_distance = 0.015;  ///< m, > 0
+  double max_distance = 0.15;   ///< m, >= min_distance
   std::vector<std::string> sides = kPushSides;             ///< the faces designs may choose
-  /// Grid design's values; each within the absolute limits (not min/max above, which bound sampled pushes).
-  std::vector<double> grid_offsets{-0.015, 0.0, 0.015};
-  std::vector<double> grid_distances{0.03, 0.06};
+  /// Grid design's values: offsets as fractions in [-1, 1] of the face's offset limit, distances as fractions
+  /// in (0, 1] of max_distance.
+  std::vector<double> grid_offsets{-0.75, 0.0, 0.75};
+  std::vector<double> grid_distances{0.2, 0.4};
   std::size_t candidates = 32;  ///< curiosity design: candidates sampled per decision (1..10000)
   double epsilon = 0.1;         ///< curiosity design: probability of a random candidate instead of the best
 

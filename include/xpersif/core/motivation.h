@@ -18,12 +18,13 @@
 #include <vector>
 
 #include "xpersif/core/experiment.h"
+#include "xpersif/core/footprint.h"
 
 namespace xpersif::core {
 
 struct Surprise {
   /// Plain error magnitude, in metres: |(ex, ey, yaw_length * eyaw)|, so that a turn counts as the distance
-  /// a point at yaw_length from the centre travels (2 cm, the half side of a cube, by default).
+  /// a point at yaw_length from the centre travels (MOTIVATION takes the objects' mean half-size).
   double error = 0.0;
   /// The error in units of the predicted std: sqrt(mean of (e_k / std_k)^2) over dx, dy, dyaw; about 1 when
   /// the outcome falls where the model said it would.
@@ -37,8 +38,9 @@ Surprise surprise(const Prediction& prediction, const Outcome& outcome, double y
 
 struct CuriosityConfig {
   std::vector<std::string> objects;                      ///< the objects the robot may push
+  std::map<std::string, Footprint> footprints;           ///< each object's footprint (its offset limits)
   std::vector<std::string> sides = pushSides();
-  int offset_bins = 3;                                   ///< equal bins over [-kMaxPushOffset, kMaxPushOffset]
+  int offset_bins = 3;  ///< equal bins over each face's offsets, [-maxPushOffset, maxPushOffset]
   std::size_t window = 5;                                ///< errors per window (older and newer)
   std::size_t min_visits = 2;                            ///< below this, a region is still "unexplored"
   double optimistic_curiosity = 1.0;                     ///< curiosity of an unexplored region
@@ -89,8 +91,8 @@ class CuriosityMap {
   std::vector<RegionStats> regions() const;
   /// The most curious region; ties go to the least visited, then to key order (deterministic).
   RegionKey mostCurious() const;
-  /// The offset interval [lo, hi] of a bin (for designing an experiment in the region).
-  std::pair<double, double> offsetRange(int bin) const;
+  /// The offset interval [lo, hi] of a region, m (for designing an experiment in it).
+  std::pair<double, double> offsetRange(const RegionKey& region) const;
 
   const CuriosityConfig& config() const { return config_; }
 

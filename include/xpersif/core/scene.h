@@ -60,6 +60,7 @@ struct SceneDescription {
   std::vector<SceneNode> nodes;  ///< parents come before their children
   /// Roles, from the world file: the experimenter's catalogue of what is in the arena. Names, shapes, sizes
   /// and colours only; masses, frictions and poses are for the loop to learn.
+  std::string world_file;            ///< the world file the scene was built from (for sentences)
   std::string robot_root;            ///< the robot's root link (a node), "" when the scene has no robot
   std::string robot_marker;          ///< the robot link whose visual marks its heading from above, or ""
   std::vector<std::string> objects;  ///< the objects to experiment with (top-level dynamic nodes), in file order

@@ -12,9 +12,12 @@
  * Which objects may be pushed: the request's `reachable` list, or else the objects of the latest feature
  * vector on ~features_topic (VISION's), always restricted to ~objects.
  *
- * Parameters (configure): ~design (curiosity | random | grid), ~seed (int, 1), ~objects (the four cubes),
- * ~min_offset/~max_offset (m, +-0.02), ~min_distance/~max_distance (m, 0.01/0.15), ~grid_offsets,
- * ~grid_distances, ~candidates (32), ~epsilon (0.1), ~offset_bins (3), ~optimistic_curiosity (1.0),
+ * The objects, their footprints and the push limits come from XPERSim's scene (core::SetupCatalogue).
+ * Parameters (configure): ~design (curiosity | random | grid), ~seed (int, 1), ~objects (every object of the
+ * scene; a list restricts it), ~min_offset/~max_offset (fractions of each face's offset limit, -1/1),
+ * ~min_distance/~max_distance (m, the set-up's minPushDistance/maxPushDistance), ~grid_offsets (fractions,
+ * [-0.75, 0, 0.75]), ~grid_distances (fractions of ~max_distance, [0.2, 0.4]), ~candidates (32), ~epsilon (0.1),
+ * ~offset_bins (3), ~optimistic_curiosity (1.0),
  * ~features_topic (vision/features), ~motivation_topic (motivation/motivation). An unknown design or bad
  * bounds make configure fail with the sentence naming the parameter. Re-configuring restarts the design
  * from its seed.
@@ -58,6 +61,7 @@ class DesignOfExperiments : public Component {
   std::unique_ptr<core::ExperimentDesign> design_;
   std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
   std::vector<std::string> objects_;
+  std::map<std::string, core::Footprint> footprints_;
   double optimistic_ = 1.0;
   std::size_t designed_ = 0;
   std::map<std::string, double> curiosity_;  // region key -> curiosity, from the latest Motivation

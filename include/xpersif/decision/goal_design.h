@@ -18,13 +18,16 @@
  * distance as expected_error.
  * Both refuse while no model has arrived.
  *
- * Parameters (configure): ~seed (1), ~objects (the four cubes), ~min_target_distance (0.05),
- * ~max_target_distance (0.12), ~wall_clearance (0.08), ~object_clearance (0.06), ~offsets ([-0.015, -0.0075, 0,
- * 0.0075, 0.015]), ~distances ([0.02, 0.04, ..., 0.14]), ~random_candidates (64), ~model_topic
- * (machine_learning/model), ~notions_topic (machine_learning/notions); the arena from the `world` file.
+ * Parameters (configure); the objects, the arena and the defaults of every distance come from XPERSim's scene
+ * (core::SetupCatalogue, with L = its longest push, R = the robot's radius, c = the largest object's
+ * circumradius): ~seed (1), ~objects (every object; a list restricts it), ~min_target_distance (L / 3),
+ * ~max_target_distance (0.8 L), ~wall_clearance (c + 1.5 R), ~object_clearance (2 c), ~offsets (fractions of each
+ * face's offset limit, [-0.75, -0.375, 0, 0.375, 0.75]), ~distances (fractions of L, [0.15, 0.3, ..., 0.9]),
+ * ~random_candidates (64), ~model_topic (machine_learning/model), ~notions_topic (machine_learning/notions).
  */
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -63,6 +66,8 @@ class GoalDesign : public Component {
 
   mutable std::mutex mutex_;
   std::vector<std::string> objects_;
+  std::map<std::string, core::Footprint> footprints_;
+  double min_push_ = 0, max_push_ = 0;  // the set-up's push distances, m
   double min_target_ = 0.05, max_target_ = 0.12, wall_clearance_ = 0.08, object_clearance_ = 0.06;
   std::vector<double> offsets_, distances_;
   int random_candidates_ = 64;

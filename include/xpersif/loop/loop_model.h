@@ -20,7 +20,8 @@
  * `~progress` (RunLoopFeedback).
  *
  * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
- * `~tidy_margin` (m, 0.13), `~tidy_spacing` (m, 0.14: cubes closer than this are moved apart), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
+ * `~tidy_margin` (m; default SetupCatalogue::wallMargin, from the objects, the robot and the arena),
+ * `~tidy_spacing` (m; objects closer than this are moved apart; default SetupCatalogue::objectSpacing), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
  * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
  * and the `world` file for the arena (embodiment_setup.h).
  */
@@ -41,6 +42,7 @@
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/SetExperiment.h"
 #include "xpersif/component/supervisor.h"
+#include "xpersif/core/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
 
 namespace xpersif {
@@ -72,6 +74,7 @@ class LoopModel : public Supervisor {
 
   std::mutex mutex_;
   EmbodimentSetup setup_;
+  std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;

@@ -1,0 +1,24 @@
+/**
+ * @file setup_loader.h
+ * @brief How a component learns the set-up: it asks XPERSim for its scene (the get_scene operation) and reads
+ *        the experimenter's catalogue from it (core::SetupCatalogue), so that every component knows the same
+ *        objects, shapes and sizes as the world file, and nothing is configured twice.
+ */
+#pragma once
+
+#include <ros/ros.h>
+
+#include "xpersif/core/setup.h"
+
+namespace xpersif {
+
+/**
+ * @brief The catalogue from XPERSim's scene. The operation is the `scene_service` parameter (searched upwards
+ *        from @p private_nh; default "xpersim/get_scene" in @p nh's namespace), waited for up to
+ *        `scene_timeout` s (30). The private parameter `~objects`, when set, restricts the catalogue to those
+ *        objects (a name the scene lacks is an error naming it and the world file).
+ * @throws std::runtime_error (or core::ValidationError) with a sentence when the scene cannot be had or used
+ */
+core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+
+}  // namespace xpersif

@@ -1,0 +1,33 @@
+#include "xpersif/ros/setup_loader.h"
+
+#include <stdexcept>
+
+#include "xpersif/GetScene.h"
+#include "xpersif/core/validation.h"
+#include "xpersif/ros/conversions.h"
+
+namespace xpersif {
+
+core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
+  std::string service = "xpersim/get_scene", key;
+  double timeout = 30.0;
+  if (private_nh.searchParam("scene_service", key)) private_nh.getParam(key, service);
+  if (private_nh.searchParam("scene_timeout", key)) private_nh.getParam(key, timeout);
+  core::requirePositive("scene_timeout", timeout);
+  service = nh.resolveName(service);
+  if (!ros::service::waitForService(service, ros::Duration(timeout))) {
+    throw std::runtime_error("no scene: XPERSim's " + service + " did not appear within " +
+                             core::describeNumber(timeout) + " s; the objects and the arena are read from it");
+  }
+  GetScene call;
+  if (!ros::service::call(service, call) || !call.response.success) {
+    throw std::runtime_error("no scene from " + service + ": " +
+                             (call.response.message.empty() ? std::string("the call failed") : call.response.message));
+  }
+  core::SetupCatalogue catalogue = core::SetupCatalogue::fromScene(fromSceneMsg(call.response.scene));
+  std::vector<std::string> objects;
+  if (private_nh.getParam("objects", objects)) catalogue = catalogue.restrictedTo(objects, "~objects");
+  return catalogue;
+}
+
+}  // namespace xpersif

@@ -1,0 +1,114 @@
+// The set-up catalogue read from XPERSim's scene: objects, footprints and the limits derived from them, on
+// every shipped world (not only the default one).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "xpersif/core/physics_world.h"
+#include "xpersif/core/setup.h"
+#include "xpersif/core/validation.h"
+#include "xpersif/core/world_spec.h"
+
+using namespace xpersif::core;
+
+namespace {
+
+std::vector<std::string> worldFiles() {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+SceneDescription sceneOf(const std::string& file) { return PhysicsWorld(loadWorldFile(file)).scene(); }
+
+}  // namespace
+
+TEST(SetupCatalogue, EveryShippedWorldGivesItsObjectsAndSaneLimits) {
+  const auto files = worldFiles();
+  ASSERT_FALSE(files.empty());
+  for (const auto& file : files) {
+    SCOPED_TRACE(file);
+    const WorldSpec spec = loadWorldFile(file);
+    const SetupCatalogue cat = SetupCatalogue::fromScene(PhysicsWorld(spec).scene());
+    ASSERT_EQ(cat.objects.size(), spec.objects.size());
+    for (std::size_t i = 0; i < spec.objects.size(); ++i) {
+      EXPECT_EQ(cat.objects[i].name, spec.objects[i].name);  // world-file order
+      EXPECT_EQ(cat.objects[i].footprint.isDisc(), spec.objects[i].shape.type != Shape::Type::Box);
+    }
+    EXPECT_EQ(cat.arena_size_x, spec.arena.size_x);
+    EXPECT_EQ(cat.arena_size_y, spec.arena.size_y);
+    EXPECT_GT(cat.robot_radius, 0.0);
+    EXPECT_LT(cat.minPushDistance(), cat.maxPushDistance());
+    EXPECT_LT(cat.maxPushDistance(), 0.5 * std::min(cat.arena_size_x, cat.arena_size_y));
+    // Tidying leaves room inside the arena.
+    EXPECT_LT(cat.wallMargin(), 0.5 * std::min(cat.arena_size_x, cat.arena_size_y));
+    for (const auto& o : cat.objects) {
+      for (const auto& side : pushSides()) {
+        const double limit = maxPushOffset(o.footprint, side);
+        EXPECT_GT(limit, 0.0) << o.name;
+        EXPECT_EQ(cat.checkExperiment("e", {o.name, side, limit, cat.maxPushDistance()}), "") << o.name;
+        EXPECT_NE(cat.checkExperiment("e", {o.name, side, 1.01 * limit, cat.maxPushDistance()}), "") << o.name;
+      }
+    }
+  }
+}
+
+TEST(SetupCatalogue, DefaultWorldKeepsItsFormerLimits) {
+  // The limits that used to be constants for 4 cm cubes in a 0.9 x 0.6 m arena now follow from the geometry.
+  const SetupCatalogue cat = SetupCatalogue::fromScene(sceneOf(std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml"));
+  EXPECT_NEAR(cat.maxPushDistance(), 0.15, 1e-12);
+  for (const auto& o : cat.objects) EXPECT_NEAR(maxPushOffset(o.footprint, "-x"), 0.02, 1e-12);
+  EXPECT_NEAR(cat.robot_radius, 0.035, 1e-3);
+}
+
+TEST(SetupCatalogue, ShapesGiveTheirOwnPushGeometry) {
+  const Footprint long_box = Footprint::rectangle(0.08, 0.03), disc = Footprint::disc(0.025);
+  EXPECT_DOUBLE_EQ(long_box.depth("-x"), 0.04);
+  EXPECT_DOUBLE_EQ(long_box.depth("+y"), 0.015);
+  EXPECT_DOUBLE_EQ(maxPushOffset(long_box, "-x"), 0.015);  // across the narrow face
+  EXPECT_DOUBLE_EQ(maxPushOffset(long_box, "-y"), 0.04);   // across the long face
+  EXPECT_DOUBLE_EQ(maxPushOffset(disc, "+x"), 0.0125);     // half the radius
+  EXPECT_NEAR(long_box.signedDistance(0.05, 0), 0.01, 1e-12);
+  EXPECT_NEAR(disc.signedDistance(0, 0), -0.025, 1e-12);
+  double hx = 0, hy = 0;
+  worldHalfExtents(long_box, M_PI / 2, hx, hy);
+  EXPECT_NEAR(hx, 0.015, 1e-12);
+  EXPECT_NEAR(hy, 0.04, 1e-12);
+}
+
+TEST(SetupCatalogue, RestrictingToAnUnknownObjectNamesItAndTheWorldFile) {
+  const std::string file = std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml";
+  const SetupCatalogue cat = SetupCatalogue::fromScene(sceneOf(file));
+  const std::string first = cat.objects.front().name;
+  EXPECT_EQ(cat.restrictedTo({first}, "~objects").names(), std::vector<std::string>{first});
+  try {
+    cat.restrictedTo({first, "no_such_thing"}, "~objects");
+    FAIL() << "an unknown object was accepted";
+  } catch (const ValidationError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("~objects"), std::string::npos) << what;
+    EXPECT_NE(what.find("no_such_thing"), std::string::npos) << what;
+    EXPECT_NE(what.find("default.yaml"), std::string::npos) << what;
+  }
+  EXPECT_THROW(cat.restrictedTo({}, "~objects"), ValidationError);
+  EXPECT_THROW(cat.restrictedTo({first, first}, "~objects"), ValidationError);
+  const std::string why = cat.checkExperiment("goal", {"no_such_thing", "-x", 0, 0.05});
+  EXPECT_NE(why.find("no_such_thing"), std::string::npos) << why;
+}
+
+TEST(SetupCatalogue, ASceneWithoutObjectsOrRobotIsRefused) {
+  SceneDescription scene = sceneOf(std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml");
+  SceneDescription no_objects = scene;
+  no_objects.objects.clear();
+  EXPECT_THROW(SetupCatalogue::fromScene(no_objects), ValidationError);
+  SceneDescription no_robot = scene;
+  no_robot.robot_root = "";
+  EXPECT_THROW(SetupCatalogue::fromScene(no_robot), ValidationError);
+  SceneDescription bad_name = scene;
+  bad_name.objects.push_back("ghost");
+  EXPECT_THROW(SetupCatalogue::fromScene(bad_name), ValidationError);
+}
