@@ -116,13 +116,12 @@ std::size_t GridDesign::cells(std::size_t objects) const {
 
 ExperimentChoice GridDesign::next(const DesignContext& context) {
   reachableObjects(context);  // throws when nothing can be pushed: there is then always a reachable cell
-  const std::size_t per_object = cells(1);
   const std::size_t total = cells(context.objects.size());
   for (std::size_t k = 0; k < total; ++k) {
     const std::size_t cell = (cursor_ + k) % total;
-    const auto& object = context.objects[cell / per_object];
+    const auto& object = context.objects[cell % context.objects.size()];
     if (!object.reachable) continue;
-    std::size_t rest = cell % per_object;
+    std::size_t rest = cell / context.objects.size();
     const std::size_t n_dist = options_.grid_distances.size();
     const std::size_t n_off = options_.grid_offsets.size();
     ExperimentChoice c;

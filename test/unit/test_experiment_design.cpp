@@ -115,11 +115,12 @@ TEST(GridDesign, CoversEveryCellOnceThenRepeatsInOrder) {
       }
     }
   }
-  // Object outermost, distance innermost.
+  // Object innermost (every budget covers the objects evenly), then distance, offset, side.
   EXPECT_EQ(first[0].toString(), "push red_cube on -x, offset -0.015 m, distance 0.03 m");
-  EXPECT_EQ(first[1].toString(), "push red_cube on -x, offset -0.015 m, distance 0.06 m");
-  EXPECT_EQ(first[2].toString(), "push red_cube on -x, offset 0 m, distance 0.03 m");
-  EXPECT_EQ(first[24].object, "green_cube");
+  EXPECT_EQ(first[1].toString(), "push green_cube on -x, offset -0.015 m, distance 0.03 m");
+  EXPECT_EQ(first[4].toString(), "push red_cube on -x, offset -0.015 m, distance 0.06 m");
+  EXPECT_EQ(first[8].toString(), "push red_cube on -x, offset 0 m, distance 0.03 m");
+  EXPECT_EQ(first[24].side, "+x");
   EXPECT_EQ(first[0].rationale, "grid cell 1 of 96");
   const auto second = run(d, c, 96);
   for (int i = 0; i < 96; ++i) EXPECT_TRUE(same(first[i], second[i])) << i;
@@ -139,12 +140,12 @@ TEST(GridDesign, SkipsUnreachableObjects) {
   // Reachability changing in the middle of the cycle: green's cells are skipped while it is unreachable.
   GridDesign g;
   DesignContext now = cubes();
-  run(g, now, 20);  // red cells 1..20
+  run(g, now, 20);  // cells 1..20, the objects in turn
   now.objects[1].reachable = false;
-  const auto next = run(g, now, 5);
-  for (int i = 0; i < 4; ++i) EXPECT_EQ(next[i].object, "red_cube");
-  EXPECT_EQ(next[4].object, "yellow_cube");
-  EXPECT_EQ(next[4].rationale, "grid cell 49 of 96");
+  const auto next = run(g, now, 5);  // cells 21 (red), 23 (yellow), 24 (blue), 25 (red), 27 (yellow)
+  const std::vector<std::string> expected{"red_cube", "yellow_cube", "blue_cube", "red_cube", "yellow_cube"};
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(next[i].object, expected[i]) << i;
+  EXPECT_EQ(next[4].rationale, "grid cell 27 of 96");
 }
 
 TEST(CuriosityDesign, PicksTheMostCuriousCandidate) {

@@ -93,9 +93,9 @@ class RandomDesign : public ExperimentDesign {
 };
 
 /**
- * Cycles through objects x sides x grid_offsets x grid_distances in that nesting order (object outermost),
- * skipping cells whose object is unreachable now. The cursor is the grid cell after the last one chosen; it
- * wraps around.
+ * Cycles through sides x grid_offsets x grid_distances x objects in that nesting order (object innermost, so
+ * that every budget spreads over all objects evenly), skipping cells whose object is unreachable now. The
+ * cursor is the grid cell after the last one chosen; it wraps around.
  */
 class GridDesign : public ExperimentDesign {
  public:
