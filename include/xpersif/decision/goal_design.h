@@ -40,6 +40,7 @@
 #include "xpersif/LearnedModel.h"
 #include "xpersif/Notions.h"
 #include "xpersif/component/component.h"
+#include "xpersif/core/footprint.h"
 #include "xpersif/core/motion.h"
 #include "xpersif/core/push_learner.h"
 
