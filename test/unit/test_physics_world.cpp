@@ -260,3 +260,20 @@ TEST(PhysicsWorld, APushedBallComesToRest) {
   EXPECT_LT(std::abs(ball.x()), 0.45);
   EXPECT_NEAR(ball.z(), 0.02, 0.002);
 }
+
+// The long bar of mixed.yaml turns when pushed off its centre, and slides straight when pushed at it.
+TEST(PhysicsWorld, ALongBarPushedOffCentreTurns) {
+  const auto yawAfterPush = [](double offset) {
+    PhysicsWorld world(loadWorldFile(std::string(XPERSIF_SOURCE_DIR) + "/worlds/mixed.yaml"));
+    // magenta_bar (8 cm along x) at (0.06, 0): push it towards +y, 3 cm off its centre or at it.
+    world.setPose("khepera", planar(0.06 + offset, -0.08, M_PI / 2));
+    world.setVelocity(0.08, 0.0);
+    run(world, 1.5);
+    world.setVelocity(0.0, 0.0);
+    run(world, 0.5);
+    EXPECT_GT(world.bodyPose("magenta_bar").translation().y(), 0.03) << "the push moved the bar";
+    return yawOf(world.bodyPose("magenta_bar"));
+  };
+  EXPECT_GT(std::abs(yawAfterPush(0.03)), 0.2);
+  EXPECT_LT(std::abs(yawAfterPush(0.0)), 0.05);
+}
