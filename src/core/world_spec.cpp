@@ -318,7 +318,7 @@ void deriveWheels(RobotSpec& robot, const std::string& world_field, const std::s
     throw WorldError(world_field + ".left_wheel_joint and right_wheel_joint both name '" + robot.left_wheel_joint +
                      "'; a differential drive needs two different wheel joints");
   }
-  auto wheel = [&](const std::string& joint) -> const LinkSpec& {
+  auto wheel = [&](const std::string& joint, const std::string& key) -> const LinkSpec& {
     for (const auto& l : robot.links) {
       if (l.joint != joint) continue;
       if (l.joint_type != LinkSpec::JointType::Revolute) {
@@ -332,10 +332,10 @@ void deriveWheels(RobotSpec& robot, const std::string& world_field, const std::s
       }
       return l;
     }
-    throw WorldError(urdf + ": the robot has no joint '" + joint + "' to drive as a wheel (named in " + world_field + ")");
+    throw WorldError(world_field + "." + key + " names '" + joint + "', which is not a joint of " + urdf);
   };
-  const LinkSpec& left = wheel(robot.left_wheel_joint);
-  const LinkSpec& right = wheel(robot.right_wheel_joint);
+  const LinkSpec& left = wheel(robot.left_wheel_joint, "left_wheel_joint");
+  const LinkSpec& right = wheel(robot.right_wheel_joint, "right_wheel_joint");
   const Eigen::Vector3d left_axis = (left.parent_from_link.rotation() * left.axis).normalized();
   const Eigen::Vector3d right_axis = (right.parent_from_link.rotation() * right.axis).normalized();
   if (left_axis.cross(right_axis).norm() > 0.01) {

@@ -266,8 +266,8 @@ TEST(BadWorld, UrdfInertiaNotPositiveDefinite) {
 }
 
 TEST(BadWorld, WheelJointMissing) {
-  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", left_wheel_joint: leftie}\n"), kUrdf,
-                   {"no joint 'leftie' to drive as a wheel", "bad.yaml: robot"}));
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", left_wheel_joint: leftie}\n"), "bad.yaml",
+                   {"robot.left_wheel_joint names 'leftie', which is not a joint of " + kUrdf}));
 }
 
 TEST(BadWorld, WheelJointNotRevolute) {
