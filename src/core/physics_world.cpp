@@ -68,6 +68,7 @@ struct GeomInfo {
 };
 
 constexpr int kMaxContacts = 8;
+constexpr double kBallSpinDamping = 3.0;  ///< 1/s: how fast a ball's spin decays (ODE has no rolling resistance)
 
 }  // namespace
 
@@ -257,6 +258,12 @@ struct PhysicsWorld::Impl {
     pose.translation().z() += -lowestPoint(object.shape, pose) + 0.0001;  // rest on the floor
     setPoseOf(body, pose);
     addGeom(object.shape, body, Eigen::Isometry3d::Identity(), object.friction, false);
+    if (object.shape.type == Shape::Type::Sphere) {
+      // ODE has no rolling resistance: a ball would roll forever. Damp its spin at kBallSpinDamping per
+      // second (whatever the step), down to standstill, so that it comes to rest like a ball on a mat.
+      dBodySetAngularDamping(body, 1 - std::exp(-kBallSpinDamping * spec.physics.step));
+      dBodySetAngularDampingThreshold(body, 0);
+    }
     objects.emplace_back(object.name, body);
   }
 

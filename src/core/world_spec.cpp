@@ -1,5 +1,6 @@
 #include "xpersif/core/world_spec.h"
 
+#include <Eigen/Eigenvalues>
 #include <urdf_parser/urdf_parser.h>
 #include <yaml-cpp/yaml.h>
 
@@ -82,6 +83,22 @@ Shape toShape(const urdf::GeometrySharedPtr& geometry, const std::string& where)
   return shape;
 }
 
+/// A link's mass must be finite and not negative; a given inertia matrix (not all zero, which means "take it
+/// from the collision shape") must be finite and positive definite, or ODE cannot integrate the body.
+void checkInertial(const LinkSpec& link, const std::string& where) {
+  if (!std::isfinite(link.mass) || link.mass < 0) {
+    throw WorldError(where + " has mass " + std::to_string(link.mass) + "; it must be a finite number, zero or more");
+  }
+  if (!link.inertia.allFinite()) throw WorldError(where + " has an inertia matrix that is not finite");
+  if (link.mass > 0 && !link.inertia.isZero(0)) {
+    const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(link.inertia).eigenvalues().minCoeff();
+    if (!(smallest > 0)) {
+      throw WorldError(where + " has an inertia matrix that is not positive definite (smallest eigenvalue " +
+                       std::to_string(smallest) + ")");
+    }
+  }
+}
+
 void addLink(const urdf::ModelInterface& model, const urdf::LinkConstSharedPtr& link, RobotSpec& robot,
              const std::string& source) {
   LinkSpec spec;
@@ -109,7 +126,7 @@ void addLink(const urdf::ModelInterface& model, const urdf::LinkConstSharedPtr& 
     spec.com = Eigen::Vector3d(o.x, o.y, o.z);
     const auto& i = *link->inertial;
     spec.inertia << i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz;
-    if (!(spec.mass >= 0) || !std::isfinite(spec.mass)) throw WorldError(where + " has an invalid mass");
+    checkInertial(spec, where);
   }
   if (spec.joint_type != LinkSpec::JointType::Fixed && !(spec.mass > 0)) {
     throw WorldError(where + " moves on its own but has no mass; give it an <inertial>");
@@ -132,59 +149,137 @@ void addLink(const urdf::ModelInterface& model, const urdf::LinkConstSharedPtr& 
   for (const auto& child : link->child_links) addLink(model, child, robot, source);
 }
 
-// ---- YAML ------------------------------------------------------------------------------------------
+// ---- YAML: every value is read through these helpers, so that every refusal is one sentence
+//      "<file>: <field> <what is wrong> (line L, column C)" ---------------------------------------------
 
+/// " (line L, column C)" of a node in the world file, when yaml-cpp knows it.
 std::string at(const YAML::Node& node) {
+  if (!node.IsDefined()) return "";
   const YAML::Mark mark = node.Mark();
-  return mark.line >= 0 ? " (line " + std::to_string(mark.line + 1) + ")" : "";
+  if (mark.line < 0) return "";
+  return " (line " + std::to_string(mark.line + 1) + ", column " + std::to_string(mark.column + 1) + ")";
 }
 
-template <class T>
-T get(const YAML::Node& map, const std::string& key, const T& fallback, const std::string& where) {
-  const YAML::Node value = map[key];
-  if (!value) return fallback;
-  try {
-    return value.as<T>();
-  } catch (const YAML::Exception&) {
-    throw WorldError(where + "." + key + at(value) + " has the wrong type");
+/// How a value reads in a sentence: its text, or what kind of thing it is.
+std::string shown(const YAML::Node& node) {
+  if (!node.IsDefined()) return "missing";
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a mapping";
+  return "empty";
+}
+
+/// @p field is "<file>: <path>", e.g. "worlds/x.yaml: arena.size[1]".
+[[noreturn]] void fail(const std::string& field, const YAML::Node& node, const std::string& reason) {
+  throw WorldError(field + " " + reason + at(node));
+}
+
+std::string metres(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+double asNumber(const YAML::Node& value, const std::string& field) {
+  double v = 0;
+  if (!value.IsScalar() || !YAML::convert<double>::decode(value, v)) {
+    fail(field, value, "is " + shown(value) + "; it must be a number");
   }
+  if (!std::isfinite(v)) fail(field, value, "is " + shown(value) + "; it must be a finite number");
+  return v;
 }
 
-double number(const YAML::Node& map, const std::string& key, double fallback, const std::string& where) {
-  const double v = get<double>(map, key, fallback, where);
-  if (!std::isfinite(v)) throw WorldError(where + "." + key + at(map[key]) + " must be a finite number");
+double asPositive(const YAML::Node& value, const std::string& field) {
+  const double v = asNumber(value, field);
+  if (!(v > 0)) fail(field, value, "is " + shown(value) + "; it must be greater than zero");
   return v;
+}
+
+double asInRange(const YAML::Node& value, const std::string& field, double lo, double hi) {
+  const double v = asNumber(value, field);
+  if (!(v >= lo && v <= hi)) {
+    fail(field, value, "is " + shown(value) + "; it must lie in " + metres(lo) + ".." + metres(hi));
+  }
+  return v;
+}
+
+long long asWhole(const YAML::Node& value, const std::string& field, long long lo, long long hi) {
+  long long v = 0;
+  if (!value.IsScalar() || !YAML::convert<long long>::decode(value, v)) {
+    fail(field, value, "is " + shown(value) + "; it must be a whole number");
+  }
+  if (v < lo || v > hi) {
+    fail(field, value, "is " + shown(value) + "; it must lie in " + std::to_string(lo) + ".." + std::to_string(hi));
+  }
+  return v;
+}
+
+std::string asText(const YAML::Node& value, const std::string& field) {
+  if (!value.IsScalar()) fail(field, value, "is " + shown(value) + "; it must be a text");
+  return value.Scalar();
+}
+
+std::string asIdentifier(const YAML::Node& value, const std::string& field) {
+  const std::string text = value ? asText(value, field) : "";
+  const std::string problem = checkIdentifier(field, text);
+  if (!problem.empty()) throw WorldError(problem + at(value));
+  return text;
+}
+
+/// Optional keys of a mapping: the fallback when absent. @p where is "<file>: <path>".
+double number(const YAML::Node& map, const std::string& key, double fallback, const std::string& where) {
+  const YAML::Node v = map[key];
+  return v ? asNumber(v, where + "." + key) : fallback;
 }
 
 double positive(const YAML::Node& map, const std::string& key, double fallback, const std::string& where) {
-  const double v = number(map, key, fallback, where);
-  if (!(v > 0)) throw WorldError(where + "." + key + at(map[key]) + " must be greater than zero");
-  return v;
+  const YAML::Node v = map[key];
+  return v ? asPositive(v, where + "." + key) : fallback;
+}
+
+long long whole(const YAML::Node& map, const std::string& key, long long fallback, long long lo, long long hi,
+                const std::string& where) {
+  const YAML::Node v = map[key];
+  return v ? asWhole(v, where + "." + key, lo, hi) : fallback;
+}
+
+std::string text(const YAML::Node& map, const std::string& key, const std::string& fallback, const std::string& where) {
+  const YAML::Node v = map[key];
+  return v ? asText(v, where + "." + key) : fallback;
+}
+
+std::vector<std::string> texts(const YAML::Node& map, const std::string& key, const std::string& where) {
+  const YAML::Node v = map[key];
+  std::vector<std::string> out;
+  if (!v) return out;
+  if (!v.IsSequence()) fail(where + "." + key, v, "is " + shown(v) + "; it must be a list of names");
+  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(asText(v[i], where + "." + key + "[" + std::to_string(i) + "]"));
+  return out;
 }
 
 Rgba color(const YAML::Node& map, const std::string& key, const Rgba& fallback, const std::string& where) {
   const YAML::Node value = map[key];
   if (!value) return fallback;
+  const std::string field = where + "." + key;
   if (!value.IsSequence() || (value.size() != 3 && value.size() != 4)) {
-    throw WorldError(where + "." + key + at(value) + " must be [r, g, b] or [r, g, b, a] in 0..1");
+    fail(field, value, "is " + shown(value) + "; it must be [r, g, b] or [r, g, b, a] in 0..1");
   }
   float c[4] = {0, 0, 0, 1};
   for (std::size_t i = 0; i < value.size(); ++i) {
-    const double v = value[i].as<double>();
-    if (!(v >= 0 && v <= 1)) throw WorldError(where + "." + key + at(value) + " components must lie in 0..1");
-    c[i] = static_cast<float>(v);
+    c[i] = static_cast<float>(asInRange(value[i], field + "[" + std::to_string(i) + "]", 0, 1));
   }
   return {c[0], c[1], c[2], c[3]};
 }
 
 void rejectUnknownKeys(const YAML::Node& map, const std::set<std::string>& known, const std::string& where) {
-  if (!map.IsMap()) throw WorldError(where + at(map) + " must be a mapping");
+  if (!map.IsMap()) fail(where, map, "is " + shown(map) + "; it must be a mapping");
   for (const auto& entry : map) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = asText(entry.first, where + " key");
     if (!known.count(key)) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      throw WorldError(where + at(entry.first) + " has unknown key '" + key + "'; known: " + list);
+      fail(where, entry.first, "has unknown key '" + key + "'; known keys: " + list);
     }
   }
 }
@@ -209,29 +304,335 @@ std::string readFile(const std::string& path, const std::string& what) {
   return text.str();
 }
 
-void deriveWheels(RobotSpec& robot, const std::string& source) {
-  auto wheel = [&](const std::string& joint) -> const LinkSpec& {
+bool isLink(const RobotSpec& robot, const std::string& name) {
+  for (const auto& l : robot.links) {
+    if (l.name == name) return true;
+  }
+  return false;
+}
+
+// ---- The robot's wheels: what the embodiment needs to drive it as a differential drive ---------------
+
+void deriveWheels(RobotSpec& robot, const std::string& world_field, const std::string& urdf) {
+  if (robot.left_wheel_joint == robot.right_wheel_joint) {
+    throw WorldError(world_field + ".left_wheel_joint and right_wheel_joint both name '" + robot.left_wheel_joint +
+                     "'; a differential drive needs two different wheel joints");
+  }
+  auto wheel = [&](const std::string& joint, const std::string& key) -> const LinkSpec& {
     for (const auto& l : robot.links) {
-      if (l.joint == joint) {
-        if (l.joint_type != LinkSpec::JointType::Revolute) {
-          throw WorldError(source + ": wheel joint '" + joint + "' must be revolute or continuous");
-        }
-        if (l.collisions.empty()) throw WorldError(source + ": wheel link '" + l.name + "' has no collision shape");
-        if (l.parent != robot.links[0].name) {
-          throw WorldError(source + ": wheel link '" + l.name + "' must hang from the root link");
-        }
-        return l;
+      if (l.joint != joint) continue;
+      if (l.joint_type != LinkSpec::JointType::Revolute) {
+        throw WorldError(urdf + ": wheel joint '" + joint + "' must be revolute or continuous");
       }
+      if (l.parent != robot.links[0].name) {
+        throw WorldError(urdf + ": wheel link '" + l.name + "' must hang from the root link '" + robot.links[0].name + "'");
+      }
+      if (l.collisions.empty() || l.collisions[0].shape.type == Shape::Type::Box) {
+        throw WorldError(urdf + ": wheel link '" + l.name + "' needs a sphere or cylinder collision shape (its tyre)");
+      }
+      return l;
     }
-    throw WorldError(source + ": the robot has no joint '" + joint + "' to drive as a wheel");
+    throw WorldError(world_field + "." + key + " names '" + joint + "', which is not a joint of " + urdf);
   };
-  const LinkSpec& left = wheel(robot.left_wheel_joint);
-  const LinkSpec& right = wheel(robot.right_wheel_joint);
+  const LinkSpec& left = wheel(robot.left_wheel_joint, "left_wheel_joint");
+  const LinkSpec& right = wheel(robot.right_wheel_joint, "right_wheel_joint");
+  const Eigen::Vector3d left_axis = (left.parent_from_link.rotation() * left.axis).normalized();
+  const Eigen::Vector3d right_axis = (right.parent_from_link.rotation() * right.axis).normalized();
+  if (left_axis.cross(right_axis).norm() > 0.01) {
+    throw WorldError(urdf + ": wheel joints '" + left.joint + "' and '" + right.joint +
+                     "' turn about axes that are not parallel, so the robot cannot drive straight");
+  }
   robot.wheel_radius = left.collisions[0].shape.radius;
   robot.wheel_separation = (left.parent_from_link.translation() - right.parent_from_link.translation()).norm();
-  if (!(robot.wheel_radius > 0) || !(robot.wheel_separation > 0)) {
-    throw WorldError(source + ": wheels need a positive radius and distinct positions");
+  if (std::abs(right.collisions[0].shape.radius - robot.wheel_radius) > 0.01 * robot.wheel_radius) {
+    throw WorldError(urdf + ": wheel links '" + left.name + "' and '" + right.name + "' have different radii");
   }
+  if (!(robot.wheel_radius > 0) || !(robot.wheel_separation > 0)) {
+    throw WorldError(urdf + ": wheels need a positive radius and distinct positions");
+  }
+}
+
+// ---- Horizontal footprints: where things stand on the floor, to keep them apart and inside -----------
+
+/// A disc, or a rectangle turned by yaw, on the floor plane.
+struct Footprint {
+  bool disc = true;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double radius = 0;               ///< disc
+  Eigen::Vector2d half{0, 0};      ///< rectangle: half extents along its own axes
+  double yaw = 0;                  ///< rectangle: angle of its first axis
+};
+
+constexpr double kOverlapTolerance = 0.001;  ///< m; touching is fine, 1 mm of interpenetration too
+
+/// The footprint of @p shape at @p pose: exact for upright or lying boxes and cylinders and for spheres, a
+/// circumscribed disc for anything tilted.
+Footprint footprintOf(const Shape& shape, const Eigen::Isometry3d& pose) {
+  Footprint f;
+  f.centre = pose.translation().head<2>();
+  const Eigen::Matrix3d r = pose.rotation();
+  const auto vertical = [&](int axis) { return std::abs(r(2, axis)) > 0.999; };
+  const auto rectangle = [&](int axis_a, double half_a, double half_b) {
+    f.disc = false;
+    f.half = Eigen::Vector2d(half_a, half_b);
+    f.yaw = std::atan2(r(1, axis_a), r(0, axis_a));
+  };
+  switch (shape.type) {
+    case Shape::Type::Sphere: f.radius = shape.radius; break;
+    case Shape::Type::Cylinder:
+      if (vertical(2)) {
+        f.radius = shape.radius;
+      } else if (std::abs(r(2, 2)) < 0.001) {
+        rectangle(2, shape.length / 2, shape.radius);
+      } else {
+        f.radius = std::hypot(shape.radius, shape.length / 2);
+      }
+      break;
+    case Shape::Type::Box: {
+      const Eigen::Vector3d h = shape.box_size / 2;
+      f.radius = h.norm();
+      for (int up = 0; up < 3; ++up) {
+        if (vertical(up)) rectangle((up + 1) % 3, h((up + 1) % 3), h((up + 2) % 3));
+      }
+      break;
+    }
+  }
+  return f;
+}
+
+Eigen::Vector2d axisOf(const Footprint& f, int i) {
+  const double a = f.yaw + (i == 0 ? 0 : M_PI / 2);
+  return Eigen::Vector2d(std::cos(a), std::sin(a));
+}
+
+/// Half the footprint's width along the unit direction @p n.
+double reach(const Footprint& f, const Eigen::Vector2d& n) {
+  if (f.disc) return f.radius;
+  return f.half.x() * std::abs(axisOf(f, 0).dot(n)) + f.half.y() * std::abs(axisOf(f, 1).dot(n));
+}
+
+bool overlap(const Footprint& a, const Footprint& b) {
+  const Eigen::Vector2d d = b.centre - a.centre;
+  if (a.disc && b.disc) return d.norm() < a.radius + b.radius - kOverlapTolerance;
+  if (a.disc != b.disc) {  // the disc's centre against the nearest point of the rectangle
+    const Footprint& rect = a.disc ? b : a;
+    const Footprint& disc = a.disc ? a : b;
+    const Eigen::Vector2d p = disc.centre - rect.centre;
+    const Eigen::Vector2d local(axisOf(rect, 0).dot(p), axisOf(rect, 1).dot(p));
+    const Eigen::Vector2d nearest = local.cwiseMax(-rect.half).cwiseMin(rect.half);
+    return (local - nearest).norm() < disc.radius - kOverlapTolerance;
+  }
+  for (const Footprint* f : {&a, &b}) {  // two rectangles: separating axis test
+    for (int i = 0; i < 2; ++i) {
+      const Eigen::Vector2d n = axisOf(*f, i);
+      if (std::abs(d.dot(n)) >= reach(a, n) + reach(b, n) - kOverlapTolerance) return false;
+    }
+  }
+  return true;
+}
+
+bool insideArena(const Footprint& f, const ArenaSpec& arena) {
+  return std::abs(f.centre.x()) + reach(f, Eigen::Vector2d::UnitX()) <= arena.size_x / 2 + kOverlapTolerance &&
+         std::abs(f.centre.y()) + reach(f, Eigen::Vector2d::UnitY()) <= arena.size_y / 2 + kOverlapTolerance;
+}
+
+/// The robot's collision shapes on the floor at its start pose.
+std::vector<Footprint> robotFootprint(const RobotSpec& robot) {
+  std::map<std::string, Eigen::Isometry3d> world_from_link;
+  std::vector<Footprint> out;
+  for (const auto& link : robot.links) {
+    const Eigen::Isometry3d t = link.parent.empty() ? robot.pose : world_from_link.at(link.parent) * link.parent_from_link;
+    world_from_link[link.name] = t;
+    for (const auto& c : link.collisions) out.push_back(footprintOf(c.shape, t * c.offset));
+  }
+  return out;
+}
+
+/// Every object inside the arena, clear of the robot's start footprint and of every other object.
+void checkPlacement(const WorldSpec& world, const YAML::Node& objects) {
+  const std::string& source = world.source;
+  const std::vector<Footprint> robot = robotFootprint(world.robot);
+  for (const Footprint& part : robot) {
+    if (!insideArena(part, world.arena)) {
+      throw WorldError(source + ": robot.pose puts the robot (partly) outside the " + metres(world.arena.size_x) + " x " +
+                       metres(world.arena.size_y) + " m arena");
+    }
+  }
+  std::vector<Footprint> placed;
+  for (std::size_t i = 0; i < world.objects.size(); ++i) {
+    const ObjectSpec& o = world.objects[i];
+    const std::string field = source + ": objects[" + std::to_string(i) + "] ('" + o.name + "')";
+    const Footprint f = footprintOf(o.shape, o.pose);
+    if (!insideArena(f, world.arena)) {
+      fail(field, objects[i], "at (" + metres(f.centre.x()) + ", " + metres(f.centre.y()) + ") reaches outside the " +
+                                  metres(world.arena.size_x) + " x " + metres(world.arena.size_y) + " m arena");
+    }
+    for (const Footprint& part : robot) {
+      if (overlap(f, part)) fail(field, objects[i], "overlaps the robot at its start pose (robot.pose)");
+    }
+    for (std::size_t j = 0; j < placed.size(); ++j) {
+      if (overlap(f, placed[j])) {
+        fail(field, objects[i], "overlaps objects[" + std::to_string(j) + "] ('" + world.objects[j].name + "')");
+      }
+    }
+    placed.push_back(f);
+  }
+}
+
+// ---- The sections of a world file --------------------------------------------------------------------
+
+void parsePhysics(const YAML::Node& p, const std::string& w, PhysicsSpec& physics) {
+  rejectUnknownKeys(p, {"step", "gravity", "seed", "iterations", "max_speed"}, w);
+  physics.step = positive(p, "step", physics.step, w);
+  if (physics.step > 0.05) fail(w + ".step", p["step"], "is " + shown(p["step"]) + "; it must be at most 0.05 s for stable contacts");
+  physics.gravity = number(p, "gravity", physics.gravity, w);
+  physics.seed = static_cast<unsigned long>(whole(p, "seed", static_cast<long long>(physics.seed), 0, 4294967295LL, w));
+  physics.iterations = static_cast<int>(whole(p, "iterations", physics.iterations, 1, 1000, w));
+  physics.max_speed = positive(p, "max_speed", physics.max_speed, w);
+}
+
+void parseArena(const YAML::Node& a, const std::string& w, ArenaSpec& arena) {
+  rejectUnknownKeys(a, {"size", "wall_height", "wall_thickness", "wall_color", "floor_color"}, w);
+  if (const YAML::Node size = a["size"]) {
+    if (!size.IsSequence() || size.size() != 2) fail(w + ".size", size, "is " + shown(size) + "; it must be [x, y]");
+    arena.size_x = asInRange(size[0], w + ".size[0]", 0.1, 1000);
+    arena.size_y = asInRange(size[1], w + ".size[1]", 0.1, 1000);
+  }
+  arena.wall_height = positive(a, "wall_height", arena.wall_height, w);
+  arena.wall_thickness = positive(a, "wall_thickness", arena.wall_thickness, w);
+  arena.wall_color = color(a, "wall_color", arena.wall_color, w);
+  arena.floor_color = color(a, "floor_color", arena.floor_color, w);
+}
+
+RobotSpec parseRobot(const YAML::Node& r, const std::string& w, const std::string& base_dir) {
+  rejectUnknownKeys(r, {"urdf", "pose", "left_wheel_joint", "right_wheel_joint", "max_wheel_speed", "max_wheel_torque",
+                        "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker"}, w);
+  const std::string urdf_file = text(r, "urdf", "", w);
+  if (urdf_file.empty()) fail(w, r, "needs 'urdf', the robot's URDF file");
+  const std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
+  RobotSpec robot = parseRobotUrdf(readFile(urdf_path, "URDF"), urdf_path);
+  robot.pose = pose(r, w);
+  robot.left_wheel_joint = text(r, "left_wheel_joint", "left_wheel_joint", w);
+  robot.right_wheel_joint = text(r, "right_wheel_joint", "right_wheel_joint", w);
+  robot.max_wheel_speed = positive(r, "max_wheel_speed", robot.max_wheel_speed, w);
+  robot.max_wheel_torque = positive(r, "max_wheel_torque", robot.max_wheel_torque, w);
+  robot.wheel_friction = positive(r, "wheel_friction", robot.wheel_friction, w);
+  robot.body_friction = positive(r, "body_friction", robot.body_friction, w);
+  robot.ir_sensors = texts(r, "ir_sensors", w);
+  robot.ir_range = positive(r, "ir_range", robot.ir_range, w);
+  for (std::size_t i = 0; i < robot.ir_sensors.size(); ++i) {
+    if (!isLink(robot, robot.ir_sensors[i])) {
+      fail(w + ".ir_sensors[" + std::to_string(i) + "]", r["ir_sensors"][i],
+           "names '" + robot.ir_sensors[i] + "', which is not a link of " + urdf_path);
+    }
+  }
+  robot.heading_marker = text(r, "heading_marker", "", w);
+  if (!robot.heading_marker.empty() && !isLink(robot, robot.heading_marker)) {
+    fail(w + ".heading_marker", r["heading_marker"], "names '" + robot.heading_marker + "', which is not a link of " + urdf_path);
+  }
+  deriveWheels(robot, w, urdf_path);
+  return robot;
+}
+
+/// A box's size: one edge length (a cube) or [x, y, z].
+Eigen::Vector3d boxSize(const YAML::Node& o, const std::string& w) {
+  const YAML::Node size = o["size"];
+  if (!size) return Eigen::Vector3d::Constant(0.04);
+  if (size.IsSequence()) {
+    if (size.size() != 3) fail(w + ".size", size, "is a list of " + std::to_string(size.size()) + "; it must be an edge length or [x, y, z]");
+    Eigen::Vector3d s;
+    for (int i = 0; i < 3; ++i) s(i) = asPositive(size[i], w + ".size[" + std::to_string(i) + "]");
+    return s;
+  }
+  return Eigen::Vector3d::Constant(asPositive(size, w + ".size"));
+}
+
+ObjectSpec parseObject(const YAML::Node& o, const std::string& w, std::set<std::string>& names) {
+  ObjectSpec object;
+  if (!o.IsMap()) fail(w, o, "is " + shown(o) + "; it must be a mapping");
+  if (!o["name"]) fail(w, o, "has no name");
+  object.name = asIdentifier(o["name"], w + ".name");
+  if (!names.insert(object.name).second) {
+    fail(w + ".name", o["name"], "'" + object.name + "' is already taken (by the robot, one of its links or another object)");
+  }
+  const std::set<std::string> common{"name", "shape", "mass", "friction", "color", "pose"};
+  const std::string shape = text(o, "shape", "box", w);
+  std::set<std::string> known = common;
+  if (shape == "box") {
+    known.insert("size");
+    rejectUnknownKeys(o, known, w + " (a box)");
+    object.shape.box_size = boxSize(o, w);
+  } else if (shape == "cylinder" || shape == "sphere") {
+    object.shape.type = shape == "cylinder" ? Shape::Type::Cylinder : Shape::Type::Sphere;
+    known.insert("radius");
+    if (shape == "cylinder") known.insert("length");
+    rejectUnknownKeys(o, known, w + " (a " + shape + ")");
+    object.shape.radius = positive(o, "radius", 0.02, w);
+    object.shape.length = positive(o, "length", 0.04, w);
+  } else {
+    fail(w + ".shape", o["shape"], "is '" + shape + "'; it must be box, cylinder or sphere");
+  }
+  object.mass = positive(o, "mass", object.mass, w);
+  object.friction = positive(o, "friction", object.friction, w);
+  object.color = color(o, "color", object.color, w);
+  object.pose = pose(o, w);
+  return object;
+}
+
+CameraSpec parseCamera(const YAML::Node& c, const std::string& w, const RobotSpec& robot, std::set<std::string>& names) {
+  rejectUnknownKeys(c, {"name", "parent", "pose", "width", "height", "fx", "fy", "cx", "cy"}, w);
+  if (!c["name"]) fail(w, c, "has no name");
+  CameraSpec camera;
+  camera.model.name = asIdentifier(c["name"], w + ".name");
+  camera.model.frame = camera.model.name + "_optical";
+  if (!names.insert(camera.model.frame).second) fail(w + ".name", c["name"], "'" + camera.model.name + "' is already taken");
+  camera.parent = text(c, "parent", "world", w);
+  if (camera.parent != "world" && !isLink(robot, camera.parent)) {
+    fail(w + ".parent", c["parent"], "'" + camera.parent + "' is neither 'world' nor a robot link");
+  }
+  camera.parent_from_optical = pose(c, w);
+  camera.model.width = static_cast<int>(whole(c, "width", 600, 8, 8192, w));
+  camera.model.height = static_cast<int>(whole(c, "height", 416, 8, 8192, w));
+  camera.model.fx = positive(c, "fx", 500, w);
+  camera.model.fy = positive(c, "fy", camera.model.fx, w);
+  camera.model.cx = number(c, "cx", camera.model.width / 2.0, w);
+  camera.model.cy = number(c, "cy", camera.model.height / 2.0, w);
+  return camera;
+}
+
+/// A list under @p key of the root, or an empty node.
+YAML::Node list(const YAML::Node& root, const std::string& key, const std::string& source, std::size_t max) {
+  const YAML::Node l = root[key];
+  if (!l) return YAML::Node(YAML::NodeType::Sequence);
+  if (!l.IsSequence()) fail(source + ": " + key, l, "is " + shown(l) + "; it must be a list");
+  if (l.size() > max) fail(source + ": " + key, l, "has " + std::to_string(l.size()) + " entries; at most " + std::to_string(max) + " are supported");
+  return l;
+}
+
+WorldSpec parseWorldNode(const YAML::Node& root, const std::string& base_dir, const std::string& source) {
+  if (!root.IsMap()) throw WorldError(source + ": a world file is a YAML mapping (name, physics, arena, robot, objects, cameras)");
+  rejectUnknownKeys(root, {"name", "physics", "arena", "robot", "objects", "cameras"}, source + ": the world");
+  WorldSpec world;
+  world.source = source;
+  world.name = root["name"] ? asText(root["name"], source + ": name") : "world";
+  if (const YAML::Node p = root["physics"]) parsePhysics(p, source + ": physics", world.physics);
+  if (const YAML::Node a = root["arena"]) parseArena(a, source + ": arena", world.arena);
+  const YAML::Node r = root["robot"];
+  if (!r) throw WorldError(source + ": the world has no robot");
+  world.robot = parseRobot(r, source + ": robot", base_dir);
+
+  std::set<std::string> names{world.robot.name, "world", "floor"};
+  for (const auto& l : world.robot.links) names.insert(l.name);
+  const YAML::Node objects = list(root, "objects", source, 10000);
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    world.objects.push_back(parseObject(objects[i], source + ": objects[" + std::to_string(i) + "]", names));
+  }
+  checkPlacement(world, objects);
+  const YAML::Node cameras = list(root, "cameras", source, 64);
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    world.cameras.push_back(parseCamera(cameras[i], source + ": cameras[" + std::to_string(i) + "]", world.robot, names));
+  }
+  return world;
 }
 
 }  // namespace
@@ -251,146 +652,15 @@ WorldSpec parseWorld(const std::string& yaml_text, const std::string& base_dir, 
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
-    throw WorldError(source + ": not valid YAML: " + e.what());
+    const std::string where = e.mark.is_null() ? "" : " (line " + std::to_string(e.mark.line + 1) + ", column " +
+                                                          std::to_string(e.mark.column + 1) + ")";
+    throw WorldError(source + ": not valid YAML: " + e.msg + where);
   }
-  if (!root.IsMap()) throw WorldError(source + ": a world file is a YAML mapping");
-  rejectUnknownKeys(root, {"name", "physics", "arena", "robot", "objects", "cameras"}, source);
-  WorldSpec world;
-  world.source = source;
-  world.name = get<std::string>(root, "name", "world", source);
-
-  if (const YAML::Node p = root["physics"]) {
-    const std::string w = source + ": physics";
-    rejectUnknownKeys(p, {"step", "gravity", "seed", "iterations", "max_speed"}, w);
-    world.physics.step = positive(p, "step", world.physics.step, w);
-    if (world.physics.step > 0.05) throw WorldError(w + ".step must be at most 0.05 s for stable contacts");
-    world.physics.gravity = number(p, "gravity", world.physics.gravity, w);
-    world.physics.seed = get<unsigned long>(p, "seed", world.physics.seed, w);
-    world.physics.iterations = get<int>(p, "iterations", world.physics.iterations, w);
-    if (world.physics.iterations < 1 || world.physics.iterations > 1000) throw WorldError(w + ".iterations must lie in 1..1000");
-    world.physics.max_speed = positive(p, "max_speed", world.physics.max_speed, w);
+  try {
+    return parseWorldNode(root, base_dir, source);
+  } catch (const YAML::Exception& e) {  // a safety net; every value should have been checked above
+    throw WorldError(source + ": " + e.msg + (e.mark.is_null() ? "" : " (line " + std::to_string(e.mark.line + 1) + ")"));
   }
-  if (const YAML::Node a = root["arena"]) {
-    const std::string w = source + ": arena";
-    rejectUnknownKeys(a, {"size", "wall_height", "wall_thickness", "wall_color", "floor_color"}, w);
-    if (const YAML::Node size = a["size"]) {
-      if (!size.IsSequence() || size.size() != 2) throw WorldError(w + ".size" + at(size) + " must be [x, y]");
-      world.arena.size_x = size[0].as<double>();
-      world.arena.size_y = size[1].as<double>();
-      if (!(world.arena.size_x > 0.1 && world.arena.size_y > 0.1 && world.arena.size_x < 1000 && world.arena.size_y < 1000)) {
-        throw WorldError(w + ".size" + at(size) + " must lie between 0.1 and 1000 m");
-      }
-    }
-    world.arena.wall_height = positive(a, "wall_height", world.arena.wall_height, w);
-    world.arena.wall_thickness = positive(a, "wall_thickness", world.arena.wall_thickness, w);
-    world.arena.wall_color = color(a, "wall_color", world.arena.wall_color, w);
-    world.arena.floor_color = color(a, "floor_color", world.arena.floor_color, w);
-  }
-
-  const YAML::Node r = root["robot"];
-  if (!r) throw WorldError(source + ": the world has no robot");
-  {
-    const std::string w = source + ": robot";
-    rejectUnknownKeys(r, {"urdf", "pose", "left_wheel_joint", "right_wheel_joint", "max_wheel_speed",
-                          "max_wheel_torque", "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker"}, w);
-    const std::string urdf_file = get<std::string>(r, "urdf", "", w);
-    if (urdf_file.empty()) throw WorldError(w + " needs 'urdf', the robot's URDF file");
-    const std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
-    world.robot = parseRobotUrdf(readFile(urdf_path, "URDF"), urdf_path);
-    world.robot.pose = pose(r, w);
-    world.robot.left_wheel_joint = get<std::string>(r, "left_wheel_joint", "left_wheel_joint", w);
-    world.robot.right_wheel_joint = get<std::string>(r, "right_wheel_joint", "right_wheel_joint", w);
-    world.robot.max_wheel_speed = positive(r, "max_wheel_speed", world.robot.max_wheel_speed, w);
-    world.robot.max_wheel_torque = positive(r, "max_wheel_torque", world.robot.max_wheel_torque, w);
-    world.robot.wheel_friction = positive(r, "wheel_friction", world.robot.wheel_friction, w);
-    world.robot.body_friction = number(r, "body_friction", world.robot.body_friction, w);
-    world.robot.ir_sensors = get<std::vector<std::string>>(r, "ir_sensors", {}, w);
-    world.robot.ir_range = positive(r, "ir_range", world.robot.ir_range, w);
-    for (const auto& ir : world.robot.ir_sensors) {
-      bool found = false;
-      for (const auto& l : world.robot.links) found = found || l.name == ir;
-      if (!found) throw WorldError(w + ".ir_sensors names '" + ir + "', which is not a link of " + urdf_path);
-    }
-    world.robot.heading_marker = get<std::string>(r, "heading_marker", "", w);
-    if (!world.robot.heading_marker.empty()) {
-      bool found = false;
-      for (const auto& l : world.robot.links) found = found || l.name == world.robot.heading_marker;
-      if (!found) {
-        throw WorldError(w + ".heading_marker names '" + world.robot.heading_marker + "', which is not a link of " +
-                         urdf_path);
-      }
-    }
-    deriveWheels(world.robot, urdf_path);
-  }
-
-  std::set<std::string> names{world.robot.name, "world", "floor"};
-  for (const auto& l : world.robot.links) names.insert(l.name);
-  if (const YAML::Node objects = root["objects"]) {
-    if (!objects.IsSequence()) throw WorldError(source + ": objects" + at(objects) + " must be a list");
-    if (objects.size() > 10000) throw WorldError(source + ": at most 10000 objects are supported");
-    for (std::size_t i = 0; i < objects.size(); ++i) {
-      const YAML::Node o = objects[i];
-      const std::string w = source + ": objects[" + std::to_string(i) + "]";
-      rejectUnknownKeys(o, {"name", "shape", "size", "radius", "length", "mass", "friction", "color", "pose"}, w);
-      ObjectSpec object;
-      object.name = get<std::string>(o, "name", "", w);
-      throwIfInvalid(checkIdentifier(w + ".name", object.name));
-      if (!names.insert(object.name).second) throw WorldError(w + ".name '" + object.name + "' is already taken");
-      const std::string shape = get<std::string>(o, "shape", "box", w);
-      if (shape == "box") {
-        const YAML::Node size = o["size"];
-        if (size && size.IsSequence() && size.size() == 3) {
-          object.shape.box_size = Eigen::Vector3d(size[0].as<double>(), size[1].as<double>(), size[2].as<double>());
-        } else {
-          const double edge = positive(o, "size", 0.04, w);
-          object.shape.box_size = Eigen::Vector3d::Constant(edge);
-        }
-        if (!(object.shape.box_size.minCoeff() > 0)) throw WorldError(w + ".size must be positive");
-      } else if (shape == "cylinder" || shape == "sphere") {
-        object.shape.type = shape == "cylinder" ? Shape::Type::Cylinder : Shape::Type::Sphere;
-        object.shape.radius = positive(o, "radius", 0.02, w);
-        object.shape.length = positive(o, "length", 0.04, w);
-      } else {
-        throw WorldError(w + ".shape is '" + shape + "'; it must be box, cylinder or sphere");
-      }
-      object.mass = positive(o, "mass", object.mass, w);
-      object.friction = number(o, "friction", object.friction, w);
-      if (object.friction < 0) throw WorldError(w + ".friction must not be negative");
-      object.color = color(o, "color", object.color, w);
-      object.pose = pose(o, w);
-      world.objects.push_back(object);
-    }
-  }
-
-  if (const YAML::Node cameras = root["cameras"]) {
-    if (!cameras.IsSequence()) throw WorldError(source + ": cameras" + at(cameras) + " must be a list");
-    for (std::size_t i = 0; i < cameras.size(); ++i) {
-      const YAML::Node c = cameras[i];
-      const std::string w = source + ": cameras[" + std::to_string(i) + "]";
-      rejectUnknownKeys(c, {"name", "parent", "pose", "width", "height", "fx", "fy", "cx", "cy"}, w);
-      CameraSpec camera;
-      camera.model.name = get<std::string>(c, "name", "", w);
-      throwIfInvalid(checkIdentifier(w + ".name", camera.model.name));
-      camera.model.frame = camera.model.name + "_optical";
-      if (!names.insert(camera.model.frame).second) throw WorldError(w + ".name '" + camera.model.name + "' is already taken");
-      camera.parent = get<std::string>(c, "parent", "world", w);
-      bool parent_known = camera.parent == "world";
-      for (const auto& l : world.robot.links) parent_known = parent_known || l.name == camera.parent;
-      if (!parent_known) throw WorldError(w + ".parent '" + camera.parent + "' is neither 'world' nor a robot link");
-      camera.parent_from_optical = pose(c, w);
-      camera.model.width = get<int>(c, "width", 600, w);
-      camera.model.height = get<int>(c, "height", 416, w);
-      if (camera.model.width < 8 || camera.model.height < 8 || camera.model.width > 8192 || camera.model.height > 8192) {
-        throw WorldError(w + " width and height must lie in 8..8192 pixels");
-      }
-      camera.model.fx = positive(c, "fx", 500, w);
-      camera.model.fy = positive(c, "fy", camera.model.fx, w);
-      camera.model.cx = number(c, "cx", camera.model.width / 2.0, w);
-      camera.model.cy = number(c, "cy", camera.model.height / 2.0, w);
-      world.cameras.push_back(camera);
-    }
-  }
-  return world;
 }
 
 WorldSpec loadWorldFile(const std::string& path) {

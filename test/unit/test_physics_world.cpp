@@ -1,8 +1,10 @@
 // XPERSim's physics without ROS: stability, driving, pushing, IR, determinism, blow-up recovery, bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/validation.h"
@@ -159,4 +161,119 @@ TEST(PhysicsWorld, BadInputIsRefusedAndChangesNothing) {
   world.setWheelSpeeds(100, -100);
   EXPECT_DOUBLE_EQ(world.wheels().left_command, 0.5) << "wheel speeds are clamped to max_wheel_speed";
   EXPECT_DOUBLE_EQ(world.wheels().right_command, -0.5);
+}
+
+// Every file in worlds/ loads, builds, and rests: after a second of simulated time every object is finite,
+// inside the arena and on the floor (balls included: their spin is damped), and the scene lists it.
+TEST(PhysicsWorld, EveryShippedWorldLoadsBuildsAndSettles) {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  EXPECT_GE(files.size(), 3u) << "default, mixed and large";
+  for (const auto& file : files) {
+    SCOPED_TRACE(file);
+    WorldSpec spec;
+    ASSERT_NO_THROW(spec = loadWorldFile(file));
+    PhysicsWorld world(spec);
+    EXPECT_EQ(world.scene().objects.size(), spec.objects.size());
+    for (const auto& o : spec.objects) {
+      const auto& listed = world.scene().objects;
+      EXPECT_NE(std::find(listed.begin(), listed.end(), o.name), listed.end()) << o.name;
+    }
+    run(world, 1.0);
+    EXPECT_EQ(world.checkHealth(), "");
+    const double hx = spec.arena.size_x / 2, hy = spec.arena.size_y / 2;
+    for (const auto& o : spec.objects) {
+      const Eigen::Vector3d p = world.bodyPose(o.name).translation();
+      ASSERT_TRUE(p.allFinite()) << o.name;
+      EXPECT_LT(std::abs(p.x()), hx) << o.name;
+      EXPECT_LT(std::abs(p.y()), hy) << o.name;
+      const double rest_height = o.shape.type == Shape::Type::Box ? o.shape.box_size.z() / 2
+                                 : o.shape.type == Shape::Type::Sphere ? o.shape.radius
+                                                                       : o.shape.length / 2;
+      EXPECT_NEAR(p.z(), rest_height, 0.002) << o.name << " is not on the floor";
+      EXPECT_LT(world.bodyLinearVelocity(o.name).norm(), 0.005) << o.name << " still moves";
+      EXPECT_LT((p.head<2>() - o.pose.translation().head<2>()).norm(), 0.003) << o.name << " drifted";
+    }
+    EXPECT_LT(std::abs(world.bodyPose(spec.robot.name).translation().z()), 0.1);
+  }
+}
+
+// Looking straight down, a world camera sees the arena and its walls: its footprint on the floor,
+// width * h / fx by height * h / fy, covers them.
+TEST(PhysicsWorld, EveryShippedWorldsOverheadCameraSeesTheWholeArena) {
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
+    if (entry.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(entry.path().string());
+    const WorldSpec spec = loadWorldFile(entry.path().string());
+    int overhead = 0;
+    for (const auto& c : spec.cameras) {
+      const Eigen::Vector3d look = c.parent_from_optical.rotation() * Eigen::Vector3d::UnitZ();
+      if (c.parent != "world" || look.z() > -0.999) continue;
+      ++overhead;
+      const Eigen::Vector3d at = c.parent_from_optical.translation();
+      const double h = at.z(), t = spec.arena.wall_thickness;
+      EXPECT_GE(c.model.width * h / c.model.fx / 2 - std::abs(at.x()), spec.arena.size_x / 2 + t);
+      EXPECT_GE(c.model.height * h / c.model.fy / 2 - std::abs(at.y()), spec.arena.size_y / 2 + t);
+    }
+    EXPECT_GE(overhead, 1);
+  }
+}
+
+// The second robot (urdf/boxbot.urdf, root link `chassis`) drives like the first: any differential drive.
+TEST(PhysicsWorld, ABoxBodiedRobotWithAnotherRootLinkDrives) {
+  PhysicsWorld world(loadWorldFile(std::string(XPERSIF_SOURCE_DIR) + "/worlds/large.yaml"));
+  ASSERT_EQ(world.spec().robot.links[0].name, "chassis");
+  EXPECT_NEAR(world.spec().robot.wheel_radius, 0.01, 1e-12);
+  EXPECT_NEAR(world.spec().robot.wheel_separation, 0.07, 1e-12);
+  const Eigen::Vector3d start = world.bodyPose("boxbot").translation();
+  world.setVelocity(0.1, 0.0);
+  run(world, 1.0);
+  const Eigen::Vector3d moved = world.bodyPose("boxbot").translation() - start;
+  EXPECT_NEAR(moved.x(), 0.1, 0.02);
+  EXPECT_NEAR(moved.y(), 0.0, 0.005);
+  world.setVelocity(0.0, 1.0);
+  const double yaw0 = yawOf(world.bodyPose("boxbot"));
+  run(world, 1.0);
+  EXPECT_NEAR(yawOf(world.bodyPose("boxbot")) - yaw0, 1.0, 0.2);
+  EXPECT_EQ(world.checkHealth(), "");
+}
+
+// A ball pushed away rolls, then comes to rest (ODE alone would let it roll forever).
+TEST(PhysicsWorld, APushedBallComesToRest) {
+  PhysicsWorld world(loadWorldFile(std::string(XPERSIF_SOURCE_DIR) + "/worlds/mixed.yaml"));
+  // orange_ball at (-0.12, -0.15): start 6 cm behind it, drive into it for a second, then stop.
+  world.setPose("khepera", planar(-0.18, -0.15, 0.0));
+  const Eigen::Vector3d ball0 = world.bodyPose("orange_ball").translation();
+  world.setVelocity(0.1, 0.0);
+  run(world, 1.0);
+  world.setVelocity(-0.1, 0.0);
+  run(world, 0.5);
+  world.setVelocity(0.0, 0.0);
+  EXPECT_GT((world.bodyPose("orange_ball").translation() - ball0).norm(), 0.03) << "the push moved the ball";
+  run(world, 3.0);
+  EXPECT_LT(world.bodyLinearVelocity("orange_ball").norm(), 0.005);
+  EXPECT_LT(world.bodyAngularVelocity("orange_ball").norm(), 0.3);
+  const Eigen::Vector3d ball = world.bodyPose("orange_ball").translation();
+  EXPECT_LT(std::abs(ball.x()), 0.45);
+  EXPECT_NEAR(ball.z(), 0.02, 0.002);
+}
+
+// The long bar of mixed.yaml turns when pushed off its centre, and slides straight when pushed at it.
+TEST(PhysicsWorld, ALongBarPushedOffCentreTurns) {
+  const auto yawAfterPush = [](double offset) {
+    PhysicsWorld world(loadWorldFile(std::string(XPERSIF_SOURCE_DIR) + "/worlds/mixed.yaml"));
+    // magenta_bar (8 cm along x) at (0.06, 0): push it towards +y, 3 cm off its centre or at it.
+    world.setPose("khepera", planar(0.06 + offset, -0.08, M_PI / 2));
+    world.setVelocity(0.08, 0.0);
+    run(world, 1.5);
+    world.setVelocity(0.0, 0.0);
+    run(world, 0.5);
+    EXPECT_GT(world.bodyPose("magenta_bar").translation().y(), 0.03) << "the push moved the bar";
+    return yawOf(world.bodyPose("magenta_bar"));
+  };
+  EXPECT_GT(std::abs(yawAfterPush(0.03)), 0.2);
+  EXPECT_LT(std::abs(yawAfterPush(0.0)), 0.05);
 }

@@ -1,6 +1,12 @@
 // World files and URDF robots: the default world loads, malformed input gets a sentence that says where.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "xpersif/core/world_spec.h"
 
 using namespace xpersif::core;
@@ -44,15 +50,16 @@ TEST(WorldSpec, MalformedFilesGetASentenceThatSaysWhere) {
   EXPECT_NE(errorOf("name: x\n").find("the world has no robot"), std::string::npos);
   EXPECT_NE(errorOf(kRobot + "gravity: 3\n").find("unknown key 'gravity'"), std::string::npos);
   EXPECT_NE(errorOf("robot: {urdf: nowhere.urdf}\n").find("cannot read URDF"), std::string::npos);
-  EXPECT_NE(errorOf(kRobot + "physics: {step: -1}\n").find("physics.step (line 2) must be greater than zero"),
+  EXPECT_NE(errorOf(kRobot + "physics: {step: -1}\n").find("physics.step is '-1'; it must be greater than zero (line 2"),
             std::string::npos)
       << errorOf(kRobot + "physics: {step: -1}\n");
   EXPECT_NE(errorOf(kRobot + "physics: {step: .nan}\n").find("must be a finite number"), std::string::npos);
   EXPECT_NE(errorOf(kRobot + "objects: [{name: a, mass: 0}]\n").find("objects[0].mass"), std::string::npos);
-  EXPECT_NE(errorOf(kRobot + "objects: [{name: a}, {name: a}]\n").find("'a' is already taken"), std::string::npos);
+  EXPECT_NE(errorOf(kRobot + "objects: [{name: a}, {name: a, pose: {x: 0.2}}]\n").find("'a' is already taken"),
+            std::string::npos);
   EXPECT_NE(errorOf(kRobot + "objects: [{name: a, shape: cone}]\n").find("must be box, cylinder or sphere"),
             std::string::npos);
-  EXPECT_NE(errorOf(kRobot + "objects: [{name: a, color: [2, 0, 0]}]\n").find("components must lie in 0..1"),
+  EXPECT_NE(errorOf(kRobot + "objects: [{name: a, color: [2, 0, 0]}]\n").find("color[0] is '2'; it must lie in 0..1"),
             std::string::npos);
   EXPECT_NE(errorOf(kRobot + "cameras: [{name: c, parent: moon}]\n").find("neither 'world' nor a robot link"),
             std::string::npos);
@@ -73,4 +80,213 @@ TEST(WorldSpec, MalformedUrdfIsRefused) {
   } catch (const WorldError& e) {
     EXPECT_NE(std::string(e.what()).find("uses a mesh"), std::string::npos);
   }
+}
+
+// ---- Bad worlds, one case each: the sentence names the file, the field and what is wrong --------------
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A fresh directory under the system's temp directory, removed afterwards.
+class TempDir {
+ public:
+  TempDir() {
+    static int counter = 0;
+    path_ = fs::temp_directory_path() /
+            ("xpersif_world_spec_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::string file = (path_ / name).string();
+    std::ofstream(file) << text;
+    return file;
+  }
+
+ private:
+  fs::path path_;
+};
+
+const std::string kUrdf = std::string(XPERSIF_SOURCE_DIR) + "/urdf/khepera.urdf";
+const std::string kRobotAt = "robot: {urdf: " + kUrdf + ", pose: {x: -0.3}}\n";  // objects near the origin are clear of it
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Write @p yaml as bad.yaml in a temp directory and load it; the sentence it is refused with ("" if loaded).
+std::string refusal(const std::string& yaml) {
+  TempDir dir;
+  const std::string file = dir.write("bad.yaml", yaml);
+  try {
+    loadWorldFile(file);
+  } catch (const WorldError& e) {
+    const std::string what = e.what();
+    return what.rfind(file, 0) == 0 ? "bad.yaml" + what.substr(file.size()) : what;  // the path, shortened
+  }
+  return "";
+}
+
+/// The khepera URDF with @p from replaced by @p to, written next to a world that uses it; the refusal.
+std::string urdfRefusal(const std::string& from, const std::string& to, const std::string& robot_keys = "") {
+  TempDir dir;
+  std::string urdf = readText(kUrdf);
+  const auto at = urdf.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) urdf.replace(at, from.size(), to);
+  const std::string urdf_file = dir.write("bent.urdf", urdf);
+  const std::string file = dir.write("bad.yaml", "robot: {urdf: " + urdf_file + robot_keys + "}\n");
+  try {
+    loadWorldFile(file);
+  } catch (const WorldError& e) {
+    std::string what = e.what();
+    for (const std::string& path : {urdf_file, file}) {
+      const auto p = what.find(path);
+      if (p != std::string::npos) what.replace(p, path.size(), path == file ? "bad.yaml" : "bent.urdf");
+    }
+    return what;
+  }
+  return "";
+}
+
+/// One sentence: it begins with the file and contains each of @p parts.
+::testing::AssertionResult says(const std::string& sentence, const std::string& file, const std::vector<std::string>& parts) {
+  if (sentence.rfind(file + ":", 0) != 0) return ::testing::AssertionFailure() << "'" << sentence << "' does not begin with " << file;
+  for (const auto& part : parts) {
+    if (sentence.find(part) == std::string::npos) {
+      return ::testing::AssertionFailure() << "'" << sentence << "' lacks '" << part << "'";
+    }
+  }
+  if (sentence.find('\n') != std::string::npos) return ::testing::AssertionFailure() << "more than one line: " << sentence;
+  return ::testing::AssertionSuccess();
+}
+
+}  // namespace
+
+TEST(BadWorld, TextWhereANumberBelongs) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "arena: {size: [0.9, wide]}\n"), "bad.yaml",
+                   {"arena.size[1] is 'wide'; it must be a number (line 2, column 21)"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects:\n  - {name: a, size: big}\n"), "bad.yaml",
+                   {"objects[0].size is 'big'; it must be a number (line 3, column 21)"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "physics: {iterations: many}\n"), "bad.yaml",
+                   {"physics.iterations is 'many'; it must be a whole number"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "arena: {size: 0.9}\n"), "bad.yaml", {"arena.size is '0.9'; it must be [x, y]"}));
+}
+
+TEST(BadWorld, MalformedYamlNamesTheFileLineAndColumn) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a\n"), "bad.yaml", {"not valid YAML: end of map flow not found (line 3, column 1)"}));
+}
+
+TEST(BadWorld, DuplicateObjectNames) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a}, {name: a, pose: {x: 0.2}}]\n"), "bad.yaml",
+                   {"objects[1].name", "'a' is already taken"}));
+}
+
+TEST(BadWorld, ObjectNamedLikeARobotLinkOrTheWorld) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: left_wheel}]\n"), "bad.yaml",
+                   {"objects[0].name", "'left_wheel' is already taken"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: world}]\n"), "bad.yaml", {"objects[0].name", "'world' is already taken"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: khepera}]\n"), "bad.yaml", {"'khepera' is already taken"}));
+}
+
+TEST(BadWorld, ObjectOutsideTheArena) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, pose: {x: 0.44}}]\n"), "bad.yaml",
+                   {"objects[0] ('a')", "reaches outside the 0.9 x 0.6 m arena", "(line 2"}));
+  // A 4 cm cube turned by 45 degrees reaches 2.8 cm from its centre: 2.5 cm from a wall is too close.
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, pose: {y: 0.275, yaw: 0.7854}}]\n"), "bad.yaml",
+                   {"objects[0] ('a')", "outside"}));
+  EXPECT_EQ(refusal(kRobotAt + "objects: [{name: a, pose: {y: 0.275}}]\n"), "");
+}
+
+TEST(BadWorld, ObjectsOverlapping) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a}, {name: b, shape: sphere, radius: 0.03, pose: {x: 0.04}}]\n"),
+                   "bad.yaml", {"objects[1] ('b')", "overlaps objects[0] ('a')"}));
+  // Two 4 cm cubes 4.5 cm apart: clear side by side, overlapping when one is turned by 45 degrees.
+  EXPECT_EQ(refusal(kRobotAt + "objects: [{name: a}, {name: b, pose: {x: 0.045}}]\n"), "");
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a}, {name: b, pose: {x: 0.045, yaw: 0.7854}}]\n"), "bad.yaml",
+                   {"objects[1] ('b')", "overlaps objects[0] ('a')"}));
+  // A long box lying across: 8 cm along y reaches a cube 3.5 cm away along y.
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a}, {name: b, size: [0.08, 0.02, 0.02], pose: {y: 0.055, yaw: 1.5708}}]\n"),
+                   "bad.yaml", {"objects[1] ('b')", "overlaps objects[0] ('a')"}));
+  // An upright cylinder's footprint is its disc.
+  EXPECT_EQ(refusal(kRobotAt + "objects: [{name: a}, {name: b, shape: cylinder, radius: 0.02, pose: {x: 0.035, y: 0.035}}]\n"), "");
+}
+
+TEST(BadWorld, ObjectOnTheRobotsStartFootprint) {
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", pose: {x: 0.1}}\nobjects: [{name: a, pose: {x: 0.15}}]\n"),
+                   "bad.yaml", {"objects[0] ('a')", "overlaps the robot at its start pose"}));
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", pose: {x: 0.43}}\n"), "bad.yaml", {"robot.pose", "outside"}));
+}
+
+TEST(BadWorld, NonPositiveOrNonFiniteSizes) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, size: [0.04, 0, 0.04]}]\n"), "bad.yaml",
+                   {"objects[0].size[1] is '0'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, shape: sphere, radius: -0.02}]\n"), "bad.yaml",
+                   {"objects[0].radius is '-0.02'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, shape: cylinder, length: .inf}]\n"), "bad.yaml",
+                   {"objects[0].length is '.inf'; it must be a finite number"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, mass: 0}]\n"), "bad.yaml",
+                   {"objects[0].mass is '0'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction: 0}]\n"), "bad.yaml",
+                   {"objects[0].friction is '0'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "arena: {wall_height: -1}\n"), "bad.yaml", {"arena.wall_height is '-1'"}));
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", body_friction: .nan}\n"), "bad.yaml",
+                   {"robot.body_friction is '.nan'; it must be a finite number"}));
+}
+
+TEST(BadWorld, UnknownShape) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, shape: cone}]\n"), "bad.yaml",
+                   {"objects[0].shape is 'cone'; it must be box, cylinder or sphere"}));
+}
+
+TEST(BadWorld, UnknownKeysAnywhere) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "gravity: 3\n"), "bad.yaml", {"unknown key 'gravity'", "(line 2, column 1)"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, colour: [1, 0, 0]}]\n"), "bad.yaml",
+                   {"objects[0]", "unknown key 'colour'"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, pose: {x: 0.1, theta: 1}}]\n"), "bad.yaml",
+                   {"objects[0].pose", "unknown key 'theta'"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, shape: sphere, length: 0.1}]\n"), "bad.yaml",
+                   {"objects[0] (a sphere)", "unknown key 'length'"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "cameras: [{name: c, focal: 3}]\n"), "bad.yaml", {"cameras[0]", "unknown key 'focal'"}));
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", speed: 3}\n"), "bad.yaml", {"robot", "unknown key 'speed'"}));
+}
+
+TEST(BadWorld, UrdfInertiaNotPositiveDefinite) {
+  EXPECT_TRUE(says(urdfRefusal("ixx=\"2.7e-5\"", "ixx=\"-2.7e-5\""), "bent.urdf",
+                   {"link 'base_link'", "inertia matrix that is not positive definite"}));
+  EXPECT_TRUE(says(urdfRefusal("<mass value=\"0.07\"/>", "<mass value=\"-0.07\"/>"), "bent.urdf",
+                   {"link 'base_link'", "has mass -0.07", "zero or more"}));
+}
+
+TEST(BadWorld, WheelJointMissing) {
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", left_wheel_joint: leftie}\n"), "bad.yaml",
+                   {"robot.left_wheel_joint names 'leftie', which is not a joint of " + kUrdf}));
+}
+
+TEST(BadWorld, WheelJointNotRevolute) {
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", right_wheel_joint: camera_joint}\n"), kUrdf,
+                   {"wheel joint 'camera_joint' must be revolute or continuous"}));
+}
+
+TEST(BadWorld, SameWheelJointTwice) {
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", right_wheel_joint: left_wheel_joint}\n"), "bad.yaml",
+                   {"robot.left_wheel_joint and right_wheel_joint both name 'left_wheel_joint'"}));
+}
+
+TEST(BadWorld, WheelAxesNotParallel) {
+  const std::string right_axis = "<origin xyz=\"0 -0.0265 -0.0105\"/><axis xyz=\"0 1 0\"/>";
+  EXPECT_TRUE(says(urdfRefusal(right_axis, "<origin xyz=\"0 -0.0265 -0.0105\"/><axis xyz=\"1 0 0\"/>"), "bent.urdf",
+                   {"'left_wheel_joint' and 'right_wheel_joint' turn about axes that are not parallel"}));
+}
+
+TEST(BadWorld, HeadingMarkerMustNameALink) {
+  EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", heading_marker: nose}\n"), "bad.yaml",
+                   {"robot.heading_marker names 'nose', which is not a link of"}));
 }

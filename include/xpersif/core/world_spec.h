@@ -104,7 +104,16 @@ struct WorldSpec {
   std::vector<std::string> bodyNames() const;
 };
 
-/// Read a world file; the robot's URDF path is relative to it. @throws WorldError
+/// Read a world file; the robot's URDF path is relative to it. @throws WorldError with one sentence that
+/// names the file, the field (e.g. "arena.size[1]"), what is wrong and, from YAML, the line and column.
+/// Refused: malformed YAML; unknown keys (anywhere, also keys that the object's shape does not have);
+/// text where a number belongs; non-finite or non-positive sizes, radii, lengths, masses and frictions;
+/// unknown shapes; names already taken (robot, its links, "world", "floor", other objects, cameras);
+/// objects reaching outside the arena, overlapping another or the robot's start footprint (horizontal
+/// footprints, 1 mm tolerance); the robot starting outside the arena; URDF links with negative mass or an
+/// inertia that is given but not positive definite; wheel joints missing, not revolute/continuous, the
+/// same twice, not hanging from the root, without a sphere/cylinder tyre, of unequal radii or with axes
+/// that are not parallel; ir_sensors, heading_marker or a camera parent that is not a link.
 WorldSpec loadWorldFile(const std::string& path);
 /// Parse world YAML text (@p base_dir resolves the URDF path; @p source names it in errors). @throws WorldError
 WorldSpec parseWorld(const std::string& yaml_text, const std::string& base_dir, const std::string& source);
