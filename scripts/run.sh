@@ -11,11 +11,12 @@
 # Everything goes to runs/<time>/ (report.md, learning_curve.png/.csv, knowledge.db, logs).
 #   --experiments N (default 32)  --evaluation N (16)  --goals N (5)  --seed S (1)  --keep (stay up at the end)
 #   --record (record the run with rosbag into the run directory, doc/traces.md)  --record-images (with images)
-#   --record-compression lz4|bz2|none (lz4)
+#   --record-compression lz4|bz2|none (lz4)  --world FILE (worlds/default.yaml: any world file, see README)
 # SNAPSHOTRECORDER writes surprise_<t>.bag files into the run directory either way.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiments=32 evaluation=16 goals=5 seed=1 keep=0 record=false record_images=false record_compression=lz4
+world="$repo/worlds/default.yaml"
 while (($#)); do
   case "$1" in
     --experiments) experiments=$2; shift 2 ;;
@@ -26,10 +27,13 @@ while (($#)); do
     --record) record=true; shift ;;
     --record-images) record=true record_images=true; shift ;;
     --record-compression) record_compression=$2; shift 2 ;;
+    --world) world=$2; shift 2 ;;
     *) echo "run.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
 
+[[ -f "$world" ]] || { echo "run.sh: --world $world: no such file" >&2; exit 2; }
+world=$(cd "$(dirname "$world")" && pwd)/$(basename "$world")  # absolute: the nodes run elsewhere
 bash "$repo/scripts/setup.sh"
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 set -u
@@ -40,7 +44,7 @@ export ROS_LOG_DIR="$run_dir/ros_log"
 database="$run_dir/knowledge.db"
 
 port=${ROS_MASTER_URI##*:}
-roslaunch -p "$port" xpersif xpersif.launch database:="$database" seed:="$seed" run_dir:="$run_dir" \
+roslaunch -p "$port" xpersif xpersif.launch world:="$world" database:="$database" seed:="$seed" run_dir:="$run_dir" \
   record:="$record" record_images:="$record_images" record_compression:="$record_compression" >"$run_dir/launch.log" 2>&1 &
 launch_pid=$!
 stop() {

@@ -32,8 +32,9 @@ namespace xpersif::core {
 /// The four faces a cube can be pushed on, in the cube's frame.
 const std::vector<std::string>& pushSides();
 
-constexpr double kMaxPushOffset = 0.02;     ///< m: half the face of a 4 cm cube
-constexpr double kMaxPushDistance = 0.15;   ///< m: longest push after contact
+/// m: a bound on |offset| and distance that no real push reaches, whatever the set-up. Each object's own
+/// limits come from its footprint and the arena (SetupCatalogue::checkExperiment, setup.h).
+constexpr double kMaxPushExtent = 10.0;
 constexpr std::size_t kMaxObjectsPerFeatureVector = 64;
 constexpr std::size_t kMaxExtraFeatures = 32;  ///< per object
 constexpr std::size_t kMaxNameLength = 128;
@@ -94,7 +95,8 @@ double pushAngleInObject(const std::string& side);
 Outcome computeOutcome(const ObjectFeatures& before, const ObjectFeatures& after, const std::string& side);
 
 /// Field-named sentence ("" when fine): non-empty object name of at most kMaxNameLength characters, known
-/// side, finite offset within +-kMaxPushOffset, finite distance in (0, kMaxPushDistance].
+/// side, finite offset within +-kMaxPushExtent, finite distance in (0, kMaxPushExtent]. The object's own
+/// limits are SetupCatalogue::checkExperiment's.
 std::string checkExperiment(const std::string& field, const Experiment& experiment);
 std::string checkOutcome(const std::string& field, const Outcome& outcome);
 /// Finite numbers, non-empty unique object names, sizes within the caps above.
