@@ -357,7 +357,9 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
 
 // Above this mismatch (a sum of log size ratios and shape penalties) a blob is not taken for an object of its
 // colour when several share the colour: it is something else, or the object is partly hidden.
-constexpr double kMaxMatchCost = 1.2;
+constexpr double kMaxMatchCost = 0.6;
+// A blob is ambiguous when two objects' costs for it differ by less than this.
+constexpr double kAmbiguityMargin = 0.05;
 
 // Fill of a contour's minimum-area rectangle: ~1 for a rectangle, ~0.78 for a disc.
 double rectangleFill(const std::vector<cv::Point>& contour) {
@@ -380,7 +382,11 @@ struct Measurer {
   cv::Size image;
   bool downward;
 
-  bool measure(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost) const {
+  // False when the blob cannot be measured as @p obj; then @p cut tells whether only because the image border
+  // cuts it (it may still be that object: cost is then 0, "plausible").
+  bool measure(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    cut = false;
+    cost = 0;
     det = ObjectDetection();
     det.name = obj.name;
     det.centroid = blob.centroid;
@@ -391,11 +397,11 @@ struct Measurer {
       det.yaw_period = 2 * M_PI;
       det.yaw_known = false;
     }
-    if (!downward) return groundContact(obj, blob, det, cost);
+    if (!downward) return groundContact(obj, blob, det, cost, cut);
     switch (obj.shape.type) {
-      case Shape::Type::Box: return boxFromAbove(obj, blob, det, cost);
-      case Shape::Type::Cylinder: return cylinderFromAbove(obj, blob, det, cost);
-      case Shape::Type::Sphere: return sphereFromAbove(obj, blob, det, cost);
+      case Shape::Type::Box: return boxFromAbove(obj, blob, det, cost, cut);
+      case Shape::Type::Cylinder: return cylinderFromAbove(obj, blob, det, cost, cut);
+      case Shape::Type::Sphere: return sphereFromAbove(obj, blob, det, cost, cut);
     }
     return false;
   }
@@ -408,11 +414,12 @@ struct Measurer {
   // Floor area of one pixel at camera depth @p depth.
   double pixelArea(double depth) const { return depth * depth / (camera.fx * camera.fy); }
 
-  bool boxFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost) const {
+  bool boxFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
     const double sx = obj.shape.box_size.x(), sy = obj.shape.box_size.y(), sz = obj.shape.box_size.z();
     const cv::Mat top = brightestShade(blob, brightness, options.top_face_brightness);
     det.top_contour = largestContour(top, blob.roi.tl());
-    if (det.top_contour.size() < 4 || !insideImage(det.top_contour)) return false;  // cut: not measurable
+    if (det.top_contour.size() < 4) return false;
+    if (!insideImage(det.top_contour)) return cut = true, false;  // cut: not measurable
     std::array<Eigen::Vector3d, 4> corners;
     const std::array<cv::Point2d, 4> quad = fitQuadrilateral(det.top_contour);
     for (int k = 0; k < 4; ++k) {
@@ -458,11 +465,12 @@ struct Measurer {
     return true;
   }
 
-  bool cylinderFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost) const {
+  bool cylinderFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
     const double r = obj.shape.radius, h = obj.shape.length;
     const cv::Mat top = brightestShade(blob, brightness, options.top_face_brightness);
     det.top_contour = largestContour(top, blob.roi.tl());
-    if (det.top_contour.size() < 3 || !insideImage(det.top_contour)) return false;
+    if (det.top_contour.size() < 3) return false;
+    if (!insideImage(det.top_contour)) return cut = true, false;
     // The top disc's pixels (its largest part only): their centroid is the disc centre's image to ~0.1 mm.
     cv::Mat disc = cv::Mat::zeros(top.size(), CV_8U);
     cv::drawContours(disc, std::vector<std::vector<cv::Point>>{det.top_contour}, 0, cv::Scalar(255), cv::FILLED,
@@ -484,9 +492,9 @@ struct Measurer {
     return true;
   }
 
-  bool sphereFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost) const {
+  bool sphereFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
     const double r = obj.shape.radius;
-    if (blob.touches_border) return false;  // a cut silhouette's centroid is off
+    if (blob.touches_border) return cut = true, false;  // a cut silhouette's centroid is off
     Eigen::Vector3d centre;
     if (!cam.toPlane(blob.centroid.x, blob.centroid.y, r, centre)) return false;
     const double depth = cam.depth(centre);
@@ -504,14 +512,14 @@ struct Measurer {
     return true;
   }
 
-  bool groundContact(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost) const {
+  bool groundContact(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
     const Eigen::Vector3d camera_position = cam.pose().translation();
     double depth = 0;
     if (obj.shape.type == Shape::Type::Sphere) {
       // Its contact point is hidden beneath it: the silhouette's centre lies on the ray to its centre.
       // Two distance estimates, weighted by their sensitivity to a pixel: the ray meets z = radius (grazing,
       // hence poor, for a camera little above the centre), and the silhouette's angular width (2 asin(r / D)).
-      if (blob.touches_border) return false;
+      if (blob.touches_border) return cut = true, false;
       const double r = obj.shape.radius;
       const Eigen::Vector3d ray = cam.rayWorld(blob.centroid.x, blob.centroid.y).normalized();
       const Eigen::Vector3d left = cam.rayWorld(blob.roi.x, blob.centroid.y).normalized();
@@ -536,7 +544,7 @@ struct Measurer {
     } else {
       const bool disc = obj.shape.type == Shape::Type::Cylinder;
       const Footprint fp = groundFootprint(blob, cam, camera_position, obj.footprint(), disc, image.height);
-      if (!fp.ok) return false;
+      if (!fp.ok) return cut = blob.touches_border, false;
       det.position = Eigen::Vector3d(fp.centre.x(), fp.centre.y(), 0.5 * obj.height());
       depth = cam.depth(Eigen::Vector3d(fp.contact.x(), fp.contact.y(), 0));
       if (!disc) {
@@ -557,8 +565,10 @@ struct Measurer {
     const double fill = rectangleFill(blob.contour);
     const double shape_penalty = obj.shape.type == Shape::Type::Sphere ? std::max(0.0, fill - 0.86)
                                                                          : std::max(0.0, 0.86 - fill);
+    // A blob cut by the image border is only a lower bound on the extent, and its outline is no guide to shape.
+    const bool outline_cut = blob.touches_border;
     cost = logRatio(det.measured_width, obj.height()) + std::max(0.0, std::log(det.measured_length / hi)) +
-           std::max(0.0, std::log(lo / std::max(det.measured_length, 1e-9))) + 4 * shape_penalty;
+           (outline_cut ? 0.0 : std::max(0.0, std::log(lo / std::max(det.measured_length, 1e-9))) + 4 * shape_penalty);
     return true;
   }
 };
@@ -1028,22 +1038,24 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
       Blob blob;
       if (!makeBlob(mask, where[label], options_.min_blob_pixels, blob)) continue;
       double cost = 0;
-      seen[members[0]] = measurer.measure(catalogue_.objects[members[0]], blob, found[members[0]], cost);
+      bool cut = false;
+      seen[members[0]] = measurer.measure(catalogue_.objects[members[0]], blob, found[members[0]], cost, cut);
       continue;
     }
     const std::vector<Blob> blobs = allBlobs(mask, where[label], options_.min_blob_pixels, 3 * members.size());
     struct Candidate {
       double cost;
       std::size_t object, blob;
+      bool measured;  // false: cut by the border, plausibly this object but not measurable
       ObjectDetection det;
     };
     std::vector<Candidate> candidates;
     for (std::size_t b = 0; b < blobs.size(); ++b) {
       for (std::size_t i : members) {
-        Candidate c{0, i, b, {}};
-        if (measurer.measure(catalogue_.objects[i], blobs[b], c.det, c.cost) && c.cost < kMaxMatchCost) {
-          candidates.push_back(std::move(c));
-        }
+        Candidate c{0, i, b, false, {}};
+        bool cut = false;
+        c.measured = measurer.measure(catalogue_.objects[i], blobs[b], c.det, c.cost, cut);
+        if ((c.measured || cut) && c.cost < kMaxMatchCost) candidates.push_back(std::move(c));
       }
     }
     std::sort(candidates.begin(), candidates.end(),
@@ -1051,7 +1063,16 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
     std::vector<bool> blob_taken(blobs.size(), false);
     for (Candidate& c : candidates) {
       if (seen[c.object] || blob_taken[c.blob]) continue;
-      seen[c.object] = blob_taken[c.blob] = true;
+      blob_taken[c.blob] = true;
+      // A blob that another still-unplaced object of the colour fits about as well (a cut outline, a cylinder
+      // and a ball of one size side-on) is ambiguous: better missing than reported as the wrong object.
+      bool ambiguous = false;
+      for (const Candidate& other : candidates) {
+        ambiguous = ambiguous || (other.blob == c.blob && other.object != c.object && !seen[other.object] &&
+                                  other.cost < c.cost + kAmbiguityMargin);
+      }
+      if (ambiguous || !c.measured) continue;
+      seen[c.object] = true;
       found[c.object] = std::move(c.det);
     }
   }
