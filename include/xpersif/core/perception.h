@@ -114,8 +114,9 @@ struct PerceptionCatalogue {
 
 /**
  * @brief Whether the camera can tell every pair of catalogue objects apart: two objects look alike when they
- *        have the same colour (every channel within 0.02), the same shape and sizes within 15 % (box: footprint
- *        extents and height; cylinder: radius and length; sphere: radius).
+ *        have the same colour class (chromaticities within 0.01 on every channel: they share one pixel label,
+ *        whatever their brightness), the same shape and sizes within 15 % (box: footprint extents and height;
+ *        cylinder: radius and length; sphere: radius).
  * @return "" when all can be told apart, else a sentence naming both objects of the first look-alike pair
  */
 std::string checkDistinguishable(const PerceptionCatalogue& catalogue);
