@@ -6,6 +6,9 @@
 //  - robot camera (the robot turned towards a random cube): position error of the cubes wholly in its view
 //    and not hidden behind another cube, by distance from the camera; detection rate; false detections (a
 //    cube reported while wholly outside the view).
+//  - the shapes world (a cube and a long bar of one red, a cylinder, a sphere, a cylinder and a sphere of one
+//    orange): the same two parts per object, plus how often an object was reported at its same-coloured
+//    partner's place (swapped).
 // Usage: perception_accuracy [scenes=500] [seed=1] [out_dir=(none)] [noise_sigma=0] [morphology_kernel=default]
 // Writes out_dir/perception_accuracy.md (the tables printed) and out_dir/perception_accuracy.csv (every sample);
 // with noise_sigma > 0 (Gaussian image noise in grey levels, seeded), perception_accuracy_noise<sigma>.*.
@@ -49,7 +52,7 @@ struct Tally {
 
 double angleError(double a, double b, double period) { return std::fabs(foldAngle(a - b, period)); }
 
-/// Whether all 8 corners of a 4 cm cube at @p pose project inside the image (1 px margin) in front of the camera,
+/// Whether all 8 corners of a box of @p extents (a shape's bounding box) at @p pose project inside the image (1 px margin) in front of the camera,
 /// and whether none does (wholly outside the view); also its projected bounding box and depth.
 struct Visibility {
   bool whole = true, none = true;
@@ -58,12 +61,13 @@ struct Visibility {
 };
 
 Visibility visibility(const CameraModel& c, const Eigen::Isometry3d& world_from_camera, const Eigen::Isometry3d& pose,
-                      double size) {
+                      const Eigen::Vector3d& extents) {
   Visibility vis;
   const Eigen::Isometry3d camera_from_cube = world_from_camera.inverse() * pose;
   double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
   for (int i = 0; i < 8; ++i) {
-    const Eigen::Vector3d corner((i & 1 ? 0.5 : -0.5) * size, (i & 2 ? 0.5 : -0.5) * size, (i & 4 ? 0.5 : -0.5) * size);
+    const Eigen::Vector3d corner((i & 1 ? 0.5 : -0.5) * extents.x(), (i & 2 ? 0.5 : -0.5) * extents.y(),
+                                 (i & 4 ? 0.5 : -0.5) * extents.z());
     const Eigen::Vector3d p = camera_from_cube * corner;
     if (p.z() <= c.near_clip) {
       vis.whole = false;
@@ -151,7 +155,7 @@ int main(int argc, char** argv) {
         if (it != d.objects.end()) ++t.detected;
       }
     }
-    const Eigen::Isometry3d& rt = current.at("base_link");
+    const Eigen::Isometry3d& rt = current.at(w.scene.robot_root);
     ++robot_tally.expected;
     if (d.robot.found) {
       ++robot_tally.detected;
@@ -162,7 +166,7 @@ int main(int argc, char** argv) {
     // Robot camera: the robot turned towards one of the cubes (within +-0.35 rad), all cubes in the arena.
     FrameTransforms facing = randomScene(w, rng, 0.0);
     const std::string& target = cubeNames()[static_cast<std::size_t>(unit(rng) * 4) % 4];
-    Eigen::Isometry3d& base = facing["base_link"];
+    Eigen::Isometry3d& base = facing[w.scene.robot_root];
     const Eigen::Vector3d to = facing.at(target).translation() - base.translation();
     base = planar(base.translation().x(), base.translation().y(), base.translation().z(),
                   std::atan2(to.y(), to.x()) + 0.7 * (unit(rng) - 0.5));
@@ -170,7 +174,7 @@ int main(int argc, char** argv) {
     addNoise(g.image);
     const Detections e = front.extract(g.image, g.world_from_camera);
     std::map<std::string, Visibility> vis;
-    for (const std::string& name : cubeNames()) vis[name] = visibility(robot_camera, g.world_from_camera, facing.at(name), 0.04);
+    for (const std::string& name : cubeNames()) vis[name] = visibility(robot_camera, g.world_from_camera, facing.at(name), Eigen::Vector3d::Constant(0.04));
     for (const std::string& name : cubeNames()) {
       const Visibility& v = vis[name];
       bool hidden = false;  // behind a nearer cube's projected box
@@ -204,6 +208,112 @@ int main(int argc, char** argv) {
     }
   }
 
+
+  // ---- the shapes world: boxes, cylinders and spheres, two colours shared by two objects each ----------
+  const DefaultWorld sw = shapesWorld(std::string(XPERSIF_SOURCE_DIR) + "/worlds/default.yaml");
+  const Renderer shapes_renderer(sw.scene);
+  const PerceptionCatalogue shapes_catalogue = PerceptionCatalogue::fromScene(sw.scene);
+  const FeatureExtractor shapes_top(shapes_catalogue, *sw.scene.findCamera("overhead"), options),
+      shapes_front(shapes_catalogue, *sw.scene.findCamera("robot_camera"), options);
+  struct ShapeTally {
+    Tally over, ahead;
+    int swapped_over = 0, swapped_ahead = 0;
+  };
+  std::map<std::string, ShapeTally> shapes;
+  auto extentsOf = [&](const ObjectAppearance& o) {
+    if (o.shape.type == Shape::Type::Box) return o.shape.box_size;
+    return Eigen::Vector3d(2 * o.shape.radius, 2 * o.shape.radius, o.height());
+  };
+  // The other object of the same colour, or "".
+  auto partnerOf = [&](const ObjectAppearance& o) {
+    for (const ObjectAppearance& p : shapes_catalogue.objects) {
+      if (p.name != o.name && p.color.r == o.color.r && p.color.g == o.color.g && p.color.b == o.color.b) return p.name;
+    }
+    return std::string();
+  };
+  for (int s = 0; s < scenes; ++s) {
+    const FrameTransforms current = randomShapesScene(sw, rng, 0.1);
+    Frame f = render(shapes_renderer, sw.scene, current, *sw.scene.findCamera("overhead"));
+    addNoise(f.image);
+    const Detections d = shapes_top.extract(f.image, f.world_from_camera);
+    for (const ObjectAppearance& o : shapes_catalogue.objects) {
+      ShapeTally& st = shapes[o.name];
+      Tally& t = st.over;
+      const Eigen::Isometry3d& truth = current.at(o.name);
+      const bool in_view = truth.translation().x() < 1.0;
+      const auto it = d.objects.find(o.name);
+      if (!in_view) ++t.absent;
+      if (in_view) ++t.expected;
+      csv << s << ",shapes_overhead," << o.name << "," << truth.translation().x() << "," << truth.translation().y()
+          << "," << yawOf(truth) << "," << (it != d.objects.end());
+      if (it == d.objects.end()) {
+        csv << ",,,,,,\n";
+        continue;
+      }
+      const double pe = (it->second.position - truth.translation()).norm();
+      const double period = it->second.yaw_period;
+      const double ye = it->second.yaw_known ? angleError(it->second.yaw, yawOf(truth), period) : 0;
+      csv << "," << it->second.position.x() << "," << it->second.position.y() << "," << it->second.yaw << "," << pe
+          << "," << ye << ",\n";
+      if (!in_view || pe > 0.02) ++t.false_detections;
+      const std::string partner = partnerOf(o);
+      if (!partner.empty() && (it->second.position - current.at(partner).translation()).norm() < pe) ++st.swapped_over;
+      if (in_view) {
+        ++t.detected;
+        t.pos.add(pe);
+        if (it->second.yaw_known) t.yaw.add(ye);
+      }
+    }
+
+    // Robot camera: turned towards one object (within +-0.35 rad); objects wholly in view and not hidden.
+    FrameTransforms facing = randomShapesScene(sw, rng, 0.0);
+    const std::size_t n_objects = shapes_catalogue.objects.size();
+    const std::string& target = shapes_catalogue.objects[static_cast<std::size_t>(unit(rng) * n_objects) % n_objects].name;
+    Eigen::Isometry3d& base = facing[sw.scene.robot_root];
+    const Eigen::Vector3d to = facing.at(target).translation() - base.translation();
+    base = planar(base.translation().x(), base.translation().y(), base.translation().z(),
+                  std::atan2(to.y(), to.x()) + 0.7 * (unit(rng) - 0.5));
+    const CameraModel& shapes_robot_camera = *sw.scene.findCamera("robot_camera");
+    Frame g = render(shapes_renderer, sw.scene, facing, shapes_robot_camera);
+    addNoise(g.image);
+    const Detections e = shapes_front.extract(g.image, g.world_from_camera);
+    std::map<std::string, Visibility> vis;
+    for (const ObjectAppearance& o : shapes_catalogue.objects) {
+      vis[o.name] = visibility(shapes_robot_camera, g.world_from_camera, facing.at(o.name), extentsOf(o));
+    }
+    for (const ObjectAppearance& o : shapes_catalogue.objects) {
+      ShapeTally& st = shapes[o.name];
+      Tally& t = st.ahead;
+      const Visibility& v = vis[o.name];
+      bool hidden = false;
+      for (const auto& [other, ov] : vis) {
+        if (other != o.name && ov.depth > 0 && ov.depth < v.depth && (ov.box & v.box).area() > 0) hidden = true;
+      }
+      const auto it = e.objects.find(o.name);
+      if (v.none) ++t.absent;
+      if (v.none && it != e.objects.end()) ++t.false_detections;
+      if (!v.whole || hidden) continue;
+      ++t.expected;
+      const Eigen::Vector3d truth = facing.at(o.name).translation();
+      const double distance = (truth - g.world_from_camera.translation()).head<2>().norm();
+      csv << s << ",shapes_robot_camera," << o.name << "," << truth.x() << "," << truth.y() << ","
+          << yawOf(facing.at(o.name)) << "," << (it != e.objects.end());
+      if (it == e.objects.end()) {
+        csv << ",,,,," << distance << "\n";
+        continue;
+      }
+      ++t.detected;
+      const double pe = (it->second.position.head<2>() - truth.head<2>()).norm();
+      t.pos.add(pe);
+      if (pe > 0.05) ++t.gross;
+      const std::string partner = partnerOf(o);
+      if (!partner.empty() && (it->second.position.head<2>() - facing.at(partner).translation().head<2>()).norm() < pe) {
+        ++st.swapped_ahead;
+      }
+      csv << "," << it->second.position.x() << "," << it->second.position.y() << ",," << pe << "," << distance << "\n";
+    }
+  }
+
   std::ostringstream md;
   md << "perception_accuracy: " << scenes << " random scenes of the default world, seed " << seed
      << ", image noise sigma " << noise << ", morphology kernel " << options.morphology_kernel << "\n\n";
@@ -229,6 +339,42 @@ int main(int argc, char** argv) {
     md << "| " << band << " | " << t.detected << "/" << t.expected << " | " << t.false_detections << " (of " << t.absent
        << ") | " << t.gross
        << " | " << t.pos.row(1000, 1) << " |\n";
+  }
+  auto shapeWord = [](const ObjectAppearance& o) {
+    switch (o.shape.type) {
+      case Shape::Type::Box:
+        return "box " + std::to_string(static_cast<int>(std::lround(o.shape.box_size.x() * 100))) + "x" +
+               std::to_string(static_cast<int>(std::lround(o.shape.box_size.y() * 100))) + "x" +
+               std::to_string(static_cast<int>(std::lround(o.shape.box_size.z() * 100))) + " cm";
+      case Shape::Type::Cylinder:
+        return "cylinder r " + std::to_string(static_cast<int>(std::lround(o.shape.radius * 1000))) + " mm, h " +
+               std::to_string(static_cast<int>(std::lround(o.shape.length * 1000))) + " mm";
+      case Shape::Type::Sphere:
+        return "sphere r " + std::to_string(static_cast<int>(std::lround(o.shape.radius * 1000))) + " mm";
+    }
+    return std::string();
+  };
+  md << "\nShapes world, overhead camera: position error 3-D (centre); yaw error modulo the shape's symmetry (boxes\n"
+        "only: cylinders and spheres report no yaw); swapped: reported nearer its same-coloured partner's place.\n\n";
+  md << "| object | shape | detected | false det. | swapped | position error mm: mean | p95 | max | yaw error deg: mean | p95 | max |\n";
+  md << "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const ObjectAppearance& o : shapes_catalogue.objects) {
+    const ShapeTally& st = shapes[o.name];
+    const Tally& t = st.over;
+    md << "| " << o.name << " | " << shapeWord(o) << " | " << t.detected << "/" << t.expected << " | "
+       << t.false_detections << " (of " << t.absent << ") | " << st.swapped_over << " | " << t.pos.row(1000, 2) << " | "
+       << (o.rotationallySymmetric() ? std::string("– | – | –") : t.yaw.row(180 / M_PI, 2)) << " |\n";
+  }
+  md << "\nShapes world, robot camera (turned towards a random object): objects wholly in view and not behind\n"
+        "another, all distances; position error in the floor plane.\n\n";
+  md << "| object | shape | detected | false det. (wholly out of view) | swapped | >5 cm off | position error mm: mean | p95 | max |\n";
+  md << "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const ObjectAppearance& o : shapes_catalogue.objects) {
+    const ShapeTally& st = shapes[o.name];
+    const Tally& t = st.ahead;
+    md << "| " << o.name << " | " << shapeWord(o) << " | " << t.detected << "/" << t.expected << " | "
+       << t.false_detections << " (of " << t.absent << ") | " << st.swapped_ahead << " | " << t.gross << " | "
+       << t.pos.row(1000, 1) << " |\n";
   }
   std::fputs(md.str().c_str(), stdout);
   if (!out_dir.empty()) {

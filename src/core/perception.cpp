@@ -89,10 +89,9 @@ struct Blob {
   bool touches_border = false;
 };
 
-/// The largest blob of @p class_mask, searching only @p where (which must hold every set pixel of the mask).
-bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixels, Blob& blob) {
-  if (where.empty()) return false;
-  blob.contour = largestContour(class_mask(where), where.tl());
+// A blob from one outer contour of @p class_mask; false if it has fewer than @p min_pixels class pixels.
+bool blobFromContour(const cv::Mat& class_mask, std::vector<cv::Point> contour, double min_pixels, Blob& blob) {
+  blob.contour = std::move(contour);
   if (blob.contour.empty()) return false;
   blob.roi = cv::boundingRect(blob.contour);
   cv::Mat filled = cv::Mat::zeros(blob.roi.size(), CV_8U);
@@ -101,11 +100,32 @@ bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixel
   cv::bitwise_and(filled, class_mask(blob.roi), blob.mask);
   const cv::Moments m = cv::moments(blob.mask, true);
   blob.pixels = static_cast<int>(m.m00);
-  if (blob.pixels < min_pixels) return false;
+  if (blob.pixels < min_pixels || blob.pixels <= 0) return false;
   blob.centroid = toRenderer({m.m10 / m.m00 + blob.roi.x, m.m01 / m.m00 + blob.roi.y});
   blob.touches_border = blob.roi.x == 0 || blob.roi.y == 0 || blob.roi.br().x == class_mask.cols ||
                         blob.roi.br().y == class_mask.rows;
   return true;
+}
+
+/// The largest blob of @p class_mask, searching only @p where (which must hold every set pixel of the mask).
+bool makeBlob(const cv::Mat& class_mask, const cv::Rect& where, double min_pixels, Blob& blob) {
+  if (where.empty()) return false;
+  return blobFromContour(class_mask, largestContour(class_mask(where), where.tl()), min_pixels, blob);
+}
+
+/// Every blob of @p class_mask within @p where, largest first, at most @p max_count of them.
+std::vector<Blob> allBlobs(const cv::Mat& class_mask, const cv::Rect& where, double min_pixels, std::size_t max_count) {
+  std::vector<Blob> blobs;
+  if (where.empty()) return blobs;
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(class_mask(where), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, where.tl());
+  for (auto& c : contours) {
+    Blob b;
+    if (blobFromContour(class_mask, std::move(c), min_pixels, b)) blobs.push_back(std::move(b));
+  }
+  std::sort(blobs.begin(), blobs.end(), [](const Blob& a, const Blob& b) { return a.pixels > b.pixels; });
+  if (blobs.size() > max_count) blobs.resize(max_count);
+  return blobs;
 }
 
 // The brightest shade of a blob (its top face, lit from above): pixels at least `fraction` as bright as the
@@ -226,8 +246,11 @@ struct Footprint {
   Eigen::Vector2d contact = Eigen::Vector2d::Zero();  // the nearest floor point of the box
 };
 
-Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position, double size,
-                          int image_rows) {
+// @p footprint: the object's horizontal extents, long side first. A disc (@p disc) is the nearest contact point
+// plus its radius (footprint / 2) along the viewing ray: the nearest point of a circle lies on the line to its centre.
+Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position,
+                          const Eigen::Vector2d& footprint, bool disc, int image_rows) {
+  const double size = footprint.y();  // the short side bounds which outlines are long enough to fit
   Footprint fp;
   std::vector<cv::Point2f> ground;  // world x, y, left to right in the image
   int cut = 0, columns = 0;
@@ -260,7 +283,17 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
     if ((vec(ground[i]) - cam_xy).norm() < (vec(ground[k]) - cam_xy).norm()) k = i;
   }
   fp.contact = vec(ground[k]);
-  const double half = 0.5 * size;
+  const double half = 0.25 * (footprint.x() + footprint.y());  // fallback, when the sides are not told apart
+  const Eigen::Vector2d to_contact = fp.contact - cam_xy;
+  if (disc) {
+    // The nearest point's distance from the rows (the arc is flat there, so its column is poorly defined);
+    // the bearing from the middle of the blob's columns: the outline is symmetric about the disc's centre.
+    const Eigen::Vector3d ray = cam.rayWorld(blob.roi.x + 0.5 * blob.roi.width, blob.centroid.y);
+    if (to_contact.norm() < 1e-9 || ray.head<2>().norm() < 1e-9) return fp;
+    fp.centre = cam_xy + (to_contact.norm() + 0.5 * footprint.x()) * ray.head<2>().normalized();
+    fp.ok = true;
+    return fp;
+  }
   auto fit = [&](std::size_t from, std::size_t to, Eigen::Vector2d& point, Eigen::Vector2d& dir) {
     std::vector<cv::Point2f> pts(ground.begin() + from, ground.begin() + to + 1);
     cv::Vec4f f;
@@ -289,7 +322,10 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
         const double q = std::round((std::atan2(d.y(), d.x()) - yaw) / (M_PI / 2)) * (M_PI / 2) + yaw;
         return Eigen::Vector2d(std::cos(q), std::sin(q));
       };
-      fp.centre = corner + half * (snap(d1) + snap(d2));
+      // The long side along the edge seen longer (a seen edge is never longer than its side).
+      const double along1 = 0.5 * (left_len >= right_len ? footprint.x() : footprint.y());
+      const double along2 = 0.5 * (left_len >= right_len ? footprint.y() : footprint.x());
+      fp.centre = corner + along1 * snap(d1) + along2 * snap(d2);
       fp.ok = true;
       return fp;
     }
@@ -306,16 +342,236 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
     const Eigen::Vector2d mid = p + 0.5 * (tmin + tmax) * d;
     Eigen::Vector2d n(-d.y(), d.x());
     if (n.dot(mid - cam_xy) < 0) n = -n;
-    fp.centre = mid + half * n;
+    // A face of the long side turned to the camera when the seen edge is nearer its length than the short one.
+    const double seen = tmax - tmin;
+    const bool long_face = std::fabs(seen - footprint.x()) < std::fabs(seen - footprint.y());
+    fp.centre = mid + 0.5 * (long_face ? footprint.y() : footprint.x()) * n;
     fp.ok = true;
     return fp;
   }
-  Eigen::Vector2d ray = fp.contact - cam_xy;
-  if (ray.norm() < 1e-9) return fp;
-  fp.centre = fp.contact + half * ray.normalized();
+  if (to_contact.norm() < 1e-9) return fp;
+  fp.centre = fp.contact + half * to_contact.normalized();
   fp.ok = true;
   return fp;
 }
+
+// Above this mismatch (a sum of log size ratios and shape penalties) a blob is not taken for an object of its
+// colour when several share the colour: it is something else, or the object is partly hidden.
+constexpr double kMaxMatchCost = 0.6;
+// A blob is ambiguous when two objects' costs for it differ by less than this.
+constexpr double kAmbiguityMargin = 0.05;
+
+// Fill of a contour's minimum-area rectangle: ~1 for a rectangle, ~0.78 for a disc.
+double rectangleFill(const std::vector<cv::Point>& contour) {
+  const cv::RotatedRect r = cv::minAreaRect(contour);
+  const double area = r.size.area();
+  return area > 0 ? cv::contourArea(contour) / area : 0;
+}
+
+double logRatio(double measured, double expected) {
+  return measured > 0 && expected > 0 ? std::fabs(std::log(measured / expected)) : 10.0;
+}
+
+// Measures one blob as one catalogue object: its pose, measured size and confidence, and how badly the blob
+// matches the object's shape and size (cost, 0 = perfect), so blobs of a shared colour can be assigned.
+struct Measurer {
+  const CameraModel& camera;
+  const PerceptionOptions& options;
+  const Pinhole& cam;
+  const cv::Mat& brightness;
+  cv::Size image;
+  bool downward;
+
+  // False when the blob cannot be measured as @p obj; then @p cut tells whether only because the image border
+  // cuts it (it may still be that object: cost is then 0, "plausible").
+  bool measure(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    cut = false;
+    cost = 0;
+    det = ObjectDetection();
+    det.name = obj.name;
+    det.centroid = blob.centroid;
+    det.pixel_area = blob.pixels;
+    det.contour = blob.contour;
+    if (obj.rotationallySymmetric()) {
+      det.yaw = 0;
+      det.yaw_period = 2 * M_PI;
+      det.yaw_known = false;
+    }
+    if (!downward) return groundContact(obj, blob, det, cost, cut);
+    switch (obj.shape.type) {
+      case Shape::Type::Box: return boxFromAbove(obj, blob, det, cost, cut);
+      case Shape::Type::Cylinder: return cylinderFromAbove(obj, blob, det, cost, cut);
+      case Shape::Type::Sphere: return sphereFromAbove(obj, blob, det, cost, cut);
+    }
+    return false;
+  }
+
+ private:
+  bool insideImage(const std::vector<cv::Point>& contour) const {
+    const cv::Rect r = cv::boundingRect(contour);
+    return r.x > 0 && r.y > 0 && r.br().x < image.width && r.br().y < image.height;
+  }
+  // Floor area of one pixel at camera depth @p depth.
+  double pixelArea(double depth) const { return depth * depth / (camera.fx * camera.fy); }
+
+  bool boxFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    const double sx = obj.shape.box_size.x(), sy = obj.shape.box_size.y(), sz = obj.shape.box_size.z();
+    const cv::Mat top = brightestShade(blob, brightness, options.top_face_brightness);
+    det.top_contour = largestContour(top, blob.roi.tl());
+    if (det.top_contour.size() < 4) return false;
+    if (!insideImage(det.top_contour)) return cut = true, false;  // cut: not measurable
+    std::array<Eigen::Vector3d, 4> corners;
+    const std::array<cv::Point2d, 4> quad = fitQuadrilateral(det.top_contour);
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point2d p = toRenderer(quad[k]);
+      if (!cam.toPlane(p.x, p.y, sz, corners[k])) return false;
+    }
+    det.top_corners.assign(corners.begin(), corners.end());
+    const Eigen::Vector3d top_centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+    // Pixels the top face should cover if whole: its area over one pixel's footprint at its depth.
+    const double depth = cam.depth(top_centre);
+    if (!(depth > 0) || cv::countNonZero(top) < options.min_top_fraction * sx * sy / pixelArea(depth)) {
+      return false;  // occluded or cut
+    }
+    det.position = top_centre - Eigen::Vector3d(0, 0, 0.5 * sz);
+    // Side lengths and directions: edges 0-1 and 2-3 are one pair, 1-2 and 3-0 the other.
+    const Eigen::Vector3d e[4] = {corners[1] - corners[0], corners[2] - corners[1], corners[3] - corners[2],
+                                  corners[0] - corners[3]};
+    const double len_a = 0.5 * (e[0].head<2>().norm() + e[2].head<2>().norm());
+    const double len_b = 0.5 * (e[1].head<2>().norm() + e[3].head<2>().norm());
+    // Each edge's direction, turned onto the first pair's direction (modulo pi).
+    double angles[4];
+    for (int k = 0; k < 4; ++k) angles[k] = std::atan2(e[k].y(), e[k].x()) - (k % 2 ? M_PI / 2 : 0);
+    const bool square = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy);
+    det.yaw_period = square ? M_PI / 2 : M_PI;
+    // The box's x side is its longer one (or the first if square): which measured pair is that?
+    double offset = 0;
+    if (!square && ((sx > sy) != (len_a >= len_b))) offset = M_PI / 2;
+    const double factor = 2 * M_PI / det.yaw_period;
+    double c = 0, s = 0;
+    for (int k = 0; k < 4; ++k) {
+      c += std::cos(factor * angles[k]);
+      s += std::sin(factor * angles[k]);
+    }
+    det.yaw = foldAngle(std::atan2(s, c) / factor + offset, det.yaw_period);
+    det.yaw_known = true;
+    det.measured_length = std::max(len_a, len_b);
+    det.measured_width = std::min(len_a, len_b);
+    const double ratio = (len_a * len_b) / (sx * sy);
+    det.confidence = std::min(ratio, 1 / ratio);
+    const Eigen::Vector2d expected = obj.footprint();
+    cost = logRatio(det.measured_length, expected.x()) + logRatio(det.measured_width, expected.y()) +
+           4 * std::max(0.0, 0.9 - rectangleFill(det.top_contour));  // a disc's top is no rectangle
+    return true;
+  }
+
+  bool cylinderFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    const double r = obj.shape.radius, h = obj.shape.length;
+    const cv::Mat top = brightestShade(blob, brightness, options.top_face_brightness);
+    det.top_contour = largestContour(top, blob.roi.tl());
+    if (det.top_contour.size() < 3) return false;
+    if (!insideImage(det.top_contour)) return cut = true, false;
+    // The top disc's pixels (its largest part only): their centroid is the disc centre's image to ~0.1 mm.
+    cv::Mat disc = cv::Mat::zeros(top.size(), CV_8U);
+    cv::drawContours(disc, std::vector<std::vector<cv::Point>>{det.top_contour}, 0, cv::Scalar(255), cv::FILLED,
+                     cv::LINE_8, cv::noArray(), 0, -blob.roi.tl());
+    cv::bitwise_and(disc, top, disc);
+    const cv::Moments m = cv::moments(disc, true);
+    if (m.m00 <= 0) return false;
+    const cv::Point2d c = toRenderer({m.m10 / m.m00 + blob.roi.x, m.m01 / m.m00 + blob.roi.y});
+    Eigen::Vector3d top_centre;
+    if (!cam.toPlane(c.x, c.y, h, top_centre)) return false;
+    const double depth = cam.depth(top_centre);
+    const double area = m.m00 * pixelArea(depth);
+    const double ratio = area / (M_PI * r * r);
+    if (!(depth > 0) || ratio < options.min_top_fraction) return false;  // occluded or cut
+    det.position = top_centre - Eigen::Vector3d(0, 0, 0.5 * h);
+    det.measured_length = det.measured_width = 2 * std::sqrt(area / M_PI);
+    det.confidence = std::min(ratio, 1 / ratio);
+    cost = logRatio(det.measured_length, 2 * r) + 4 * std::max(0.0, rectangleFill(det.top_contour) - 0.88);
+    return true;
+  }
+
+  bool sphereFromAbove(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    const double r = obj.shape.radius;
+    if (blob.touches_border) return cut = true, false;  // a cut silhouette's centroid is off
+    Eigen::Vector3d centre;
+    if (!cam.toPlane(blob.centroid.x, blob.centroid.y, r, centre)) return false;
+    const double depth = cam.depth(centre);
+    const double area = blob.pixels * pixelArea(depth);
+    const double ratio = area / (M_PI * r * r);
+    if (!(depth > 0) || ratio < options.min_top_fraction) return false;  // occluded
+    det.position = centre;
+    det.measured_length = det.measured_width = 2 * std::sqrt(area / M_PI);
+    det.confidence = std::min(ratio, 1 / ratio);
+    // A ball is shaded across: its brightest shade is a cap, not most of it as a cylinder's top disc is.
+    const double top_share = cv::countNonZero(brightestShade(blob, brightness, options.top_face_brightness)) /
+                             static_cast<double>(blob.pixels);
+    cost = logRatio(det.measured_length, 2 * r) + 2 * std::max(0.0, top_share - 0.75) +
+           4 * std::max(0.0, rectangleFill(blob.contour) - 0.88);
+    return true;
+  }
+
+  bool groundContact(const ObjectAppearance& obj, const Blob& blob, ObjectDetection& det, double& cost, bool& cut) const {
+    const Eigen::Vector3d camera_position = cam.pose().translation();
+    double depth = 0;
+    if (obj.shape.type == Shape::Type::Sphere) {
+      // Its contact point is hidden beneath it: the silhouette's centre lies on the ray to its centre.
+      // Two distance estimates, weighted by their sensitivity to a pixel: the ray meets z = radius (grazing,
+      // hence poor, for a camera little above the centre), and the silhouette's angular width (2 asin(r / D)).
+      if (blob.touches_border) return cut = true, false;
+      const double r = obj.shape.radius;
+      const Eigen::Vector3d ray = cam.rayWorld(blob.centroid.x, blob.centroid.y).normalized();
+      const Eigen::Vector3d left = cam.rayWorld(blob.roi.x, blob.centroid.y).normalized();
+      const Eigen::Vector3d right = cam.rayWorld(blob.roi.x + blob.roi.width, blob.centroid.y).normalized();
+      const double half_angle = 0.5 * std::acos(std::clamp(left.dot(right), -1.0, 1.0));
+      const double above = camera_position.z() - r;  // camera height over the centre
+      if (!(half_angle > 0) || ray.head<2>().norm() < 1e-9) return false;
+      const double range = r / std::sin(half_angle);
+      const double d_size = std::sqrt(std::max(0.0, range * range - above * above));
+      double sum_w = 1 / std::pow(range * range / (2 * r * camera.fx), 2), d = sum_w * d_size;
+      Eigen::Vector3d centre;
+      if (above > 1e-6 && cam.toPlane(blob.centroid.x, blob.centroid.y, r, centre)) {
+        const double d_ray = (centre - camera_position).head<2>().norm();
+        const double w = 1 / std::pow(d_ray * d_ray / (above * camera.fy), 2);
+        d += w * d_ray;
+        sum_w += w;
+      }
+      d /= sum_w;
+      det.position = camera_position + d * Eigen::Vector3d(ray.x(), ray.y(), 0).normalized();
+      det.position.z() = r;
+      depth = cam.depth(det.position);
+    } else {
+      const bool disc = obj.shape.type == Shape::Type::Cylinder;
+      const Footprint fp = groundFootprint(blob, cam, camera_position, obj.footprint(), disc, image.height);
+      if (!fp.ok) return cut = blob.touches_border, false;
+      det.position = Eigen::Vector3d(fp.centre.x(), fp.centre.y(), 0.5 * obj.height());
+      depth = cam.depth(Eigen::Vector3d(fp.contact.x(), fp.contact.y(), 0));
+      if (!disc) {
+        const Eigen::Vector3d& s = obj.shape.box_size;
+        det.yaw_period = std::fabs(s.x() - s.y()) <= 1e-6 * std::max(s.x(), s.y()) ? M_PI / 2 : M_PI;
+        det.yaw_known = false;  // a few pixels of edge: too coarse to report (see groundFootprint)
+        det.yaw = 0;
+      }
+    }
+    det.measured_length = blob.roi.width * depth / camera.fx;
+    det.measured_width = blob.roi.height * depth / camera.fy;
+    const double ratio = det.measured_width / obj.height();
+    det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
+    // The horizontal extent lies between the footprint's short side and its diagonal (any yaw).
+    const Eigen::Vector2d f = obj.footprint();
+    const double lo = 0.85 * f.y(), hi = 1.15 * (obj.rotationallySymmetric() ? f.x() : f.norm());
+    // Seen from the side a ball's outline is a disc; a box's or an upright cylinder's is nearly a rectangle.
+    const double fill = rectangleFill(blob.contour);
+    const double shape_penalty = obj.shape.type == Shape::Type::Sphere ? std::max(0.0, fill - 0.86)
+                                                                         : std::max(0.0, 0.86 - fill);
+    // A blob cut by the image border is only a lower bound on the extent, and its outline is no guide to shape.
+    const bool outline_cut = blob.touches_border;
+    cost = logRatio(det.measured_width, obj.height()) + std::max(0.0, std::log(det.measured_length / hi)) +
+           (outline_cut ? 0.0 : std::max(0.0, std::log(lo / std::max(det.measured_length, 1e-9))) + 4 * shape_penalty);
+    return true;
+  }
+};
 
 double wrapPi(double a) { return foldAngle(a, 2 * M_PI); }
 
@@ -356,59 +612,126 @@ const ObjectAppearance* PerceptionCatalogue::find(const std::string& name) const
   return nullptr;
 }
 
-PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene, const std::string& robot_root) {
+double ObjectAppearance::height() const {
+  switch (shape.type) {
+    case Shape::Type::Box: return shape.box_size.z();
+    case Shape::Type::Cylinder: return shape.length;
+    case Shape::Type::Sphere: return 2 * shape.radius;
+  }
+  return 0;
+}
+
+Eigen::Vector2d ObjectAppearance::footprint() const {
+  if (shape.type != Shape::Type::Box) return Eigen::Vector2d::Constant(2 * shape.radius);
+  const double x = shape.box_size.x(), y = shape.box_size.y();
+  return {std::max(x, y), std::min(x, y)};
+}
+
+namespace {
+
+// Footprint area seen from above of an upright visual (cylinders and boxes; spheres by their disc).
+double areaFromAbove(const Shape& s) {
+  if (s.type == Shape::Type::Box) return s.box_size.x() * s.box_size.y();
+  return M_PI * s.radius * s.radius;
+}
+
+double halfHeight(const Shape& s) {
+  switch (s.type) {
+    case Shape::Type::Box: return 0.5 * s.box_size.z();
+    case Shape::Type::Cylinder: return 0.5 * s.length;
+    case Shape::Type::Sphere: return s.radius;
+  }
+  return 0;
+}
+
+// The visual of @p node with the largest footprint seen from above among the accepted types, or nullptr.
+const Visual* largestFromAbove(const SceneNode& node, bool boxes, bool cylinders, bool spheres) {
+  const Visual* best = nullptr;
+  for (const Visual& v : node.visuals) {
+    const bool accepted = (v.shape.type == Shape::Type::Box && boxes) ||
+                          (v.shape.type == Shape::Type::Cylinder && cylinders) ||
+                          (v.shape.type == Shape::Type::Sphere && spheres);
+    if (accepted && (!best || areaFromAbove(v.shape) > areaFromAbove(best->shape))) best = &v;
+  }
+  return best;
+}
+
+// Same colour class: chromaticities this close share one pixel label (their shades overlap).
+bool sameColourClass(const Rgba& a, const Rgba& b) { return chebyshev(chromaOf(a), chromaOf(b)) < 0.01f; }
+
+const char* shapeWord(Shape::Type t, bool plural) {
+  switch (t) {
+    case Shape::Type::Box: return plural ? "boxes" : "box";
+    case Shape::Type::Cylinder: return plural ? "cylinders" : "cylinder";
+    case Shape::Type::Sphere: return plural ? "spheres" : "sphere";
+  }
+  return "";
+}
+
+std::string describeShape(const Shape& s) {
+  auto mm = [](double m) { return describeNumber(m); };
+  switch (s.type) {
+    case Shape::Type::Box:
+      return mm(s.box_size.x()) + " x " + mm(s.box_size.y()) + " x " + mm(s.box_size.z()) + " m";
+    case Shape::Type::Cylinder: return "radius " + mm(s.radius) + " m, length " + mm(s.length) + " m";
+    case Shape::Type::Sphere: return "radius " + mm(s.radius) + " m";
+  }
+  return "";
+}
+
+bool within(double a, double b, double tolerance) { return std::fabs(a - b) <= tolerance * std::max(a, b); }
+
+}  // namespace
+
+PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene, const std::string& robot_root_override) {
+  const std::string& robot_root = robot_root_override.empty() ? scene.robot_root : robot_root_override;
   PerceptionCatalogue cat;
   const FrameTransforms world = worldTransforms(scene);
   std::set<const Visual*> used;
-  for (const SceneNode& node : scene.nodes) {
-    if (node.parent != scene.world_frame || !node.dynamic || node.visuals.size() != 1) continue;
-    const Visual& v = node.visuals.front();
-    if (v.shape.type != Shape::Type::Box || node.name == robot_root) continue;
-    cat.objects.push_back({node.name, v.color, v.shape.box_size});
-    used.insert(&v);
+  for (const std::string& name : scene.objects) {
+    const SceneNode* node = scene.findNode(name);
+    if (!node) throw ValidationError("scene object '" + name + "' names no node of the scene");
+    const Visual* v = largestFromAbove(*node, true, true, true);
+    if (!v) throw ValidationError("scene object '" + name + "' has no visual; the camera cannot see it");
+    cat.objects.push_back({node->name, v->color, v->shape});
+    used.insert(v);
   }
 
-  if (const SceneNode* root = scene.findNode(robot_root)) {
-    const Visual* body = nullptr;
-    for (const Visual& v : root->visuals) {
-      if (v.shape.type == Shape::Type::Cylinder) {
-        body = &v;
-        break;
-      }
-    }
+  if (!robot_root.empty()) {
+    const SceneNode* root = scene.findNode(robot_root);
+    if (!root) throw ValidationError("robot root '" + robot_root + "' names no node of the scene");
+    const Visual* body = largestFromAbove(*root, true, true, false);
     if (!body) {
       throw ValidationError("robot root '" + robot_root +
-                            "' has no cylinder visual; the perception catalogue needs the robot's body disc");
+                            "' has no cylinder or box visual; the perception catalogue needs the robot's body");
     }
     RobotAppearance& r = cat.robot;
     r.present = true;
     r.name = robot_root;
     r.body_color = body->color;
-    r.body_radius = body->shape.radius;
+    r.body_shape = body->shape;
+    r.body_radius = body->shape.type == Shape::Type::Box ? 0.5 * body->shape.box_size.head<2>().norm()
+                                                         : body->shape.radius;
+    r.body_area = areaFromAbove(body->shape);
     const Eigen::Isometry3d world_root = world.at(robot_root);
     const Eigen::Isometry3d world_body = world_root * body->offset;
-    r.body_top = world_body.translation().z() + 0.5 * body->shape.length;
+    r.body_top = world_body.translation().z() + halfHeight(body->shape);
     used.insert(body);
 
-    // Descendants of the root, in scene order (parents come first).
-    std::set<std::string> family{robot_root};
-    const SceneNode* marker_node = nullptr;
     const Visual* marker = nullptr;
-    for (const SceneNode& node : scene.nodes) {
-      if (!family.count(node.parent)) continue;
-      family.insert(node.name);
-      if (node.visuals.size() != 1 || node.visuals.front().shape.type != Shape::Type::Box) continue;
-      if (!marker_node || (node.name == "camera_link" && marker_node->name != "camera_link")) {
-        marker_node = &node;
-        marker = &node.visuals.front();
-      }
-    }
-    if (marker) {
-      const Eigen::Isometry3d world_marker = world.at(marker_node->name) * marker->offset;
+    if (!scene.robot_marker.empty()) {
+      const SceneNode* node = scene.findNode(scene.robot_marker);
+      if (!node) throw ValidationError("robot marker '" + scene.robot_marker + "' names no node of the scene");
+      marker = largestFromAbove(*node, true, true, true);
+      if (!marker) throw ValidationError("robot marker '" + scene.robot_marker + "' has no visual to see");
+      const Eigen::Isometry3d world_marker = world.at(node->name) * marker->offset;
       r.marker_color = marker->color;
-      r.marker_size = marker->shape.box_size;
+      const Shape& m = marker->shape;
+      r.marker_size = m.type == Shape::Type::Box
+                          ? m.box_size
+                          : Eigen::Vector3d(2 * m.radius, 2 * m.radius, 2 * halfHeight(m));
       r.marker_offset = world_root.inverse() * world_marker.translation();
-      r.marker_top = world_marker.translation().z() + 0.5 * marker->shape.box_size.z();
+      r.marker_top = world_marker.translation().z() + halfHeight(m);
       used.insert(marker);
     } else {
       r.marker_size = Eigen::Vector3d::Zero();  // no marker: the heading stays unknown
@@ -421,6 +744,41 @@ PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene
     }
   }
   return cat;
+}
+
+std::string checkDistinguishable(const PerceptionCatalogue& catalogue) {
+  constexpr double kSizeTolerance = 0.15;
+  const auto& objs = catalogue.objects;
+  for (std::size_t i = 0; i < objs.size(); ++i) {
+    for (std::size_t j = i + 1; j < objs.size(); ++j) {
+      const ObjectAppearance &a = objs[i], &b = objs[j];
+      if (!sameColourClass(a.color, b.color) || a.shape.type != b.shape.type) continue;
+      bool alike = false;
+      switch (a.shape.type) {
+        case Shape::Type::Box:
+          alike = within(a.footprint().x(), b.footprint().x(), kSizeTolerance) &&
+                  within(a.footprint().y(), b.footprint().y(), kSizeTolerance) &&
+                  within(a.height(), b.height(), kSizeTolerance);
+          break;
+        case Shape::Type::Cylinder:
+          alike = within(a.shape.radius, b.shape.radius, kSizeTolerance) &&
+                  within(a.shape.length, b.shape.length, kSizeTolerance);
+          break;
+        case Shape::Type::Sphere: alike = within(a.shape.radius, b.shape.radius, kSizeTolerance); break;
+      }
+      if (!alike) continue;
+      const std::string colour = describeColor(a.color) +
+                                 (describeColor(a.color) == describeColor(b.color) ? "" : " and " + describeColor(b.color));
+      const std::string sizes = describeShape(a.shape) == describeShape(b.shape)
+                                    ? describeShape(a.shape)
+                                    : describeShape(a.shape) + " and " + describeShape(b.shape);
+      return "objects '" + a.name + "' and '" + b.name + "' look alike (same colour " + colour + ", both " +
+             shapeWord(a.shape.type, true) + " of " + sizes + ", sizes within " +
+             describeNumber(100 * kSizeTolerance) +
+             " %): the camera cannot tell them apart; give one another colour, shape or size";
+    }
+  }
+  return "";
 }
 
 // ---- extractor --------------------------------------------------------------------------------------
@@ -446,12 +804,25 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
                           "; it must be an odd number from 1 to 15");
   }
 
-  // Every colour in view with a name for error messages; the first `classes` are the ones looked for.
+  // Every colour in view with a name for error messages; the first `looked_for` are the ones looked for.
+  // shade_lo/hi: the pixel brightness range its faces can take under the renderer's light (any orientation).
+  const RenderOptions render;
   struct Known {
     std::string name;
     Rgba color;
+    float shade_lo = 0, shade_hi = 765;
+  };
+  auto shades = [&](const Rgba& c) {
+    const double sum = 255.0 * (static_cast<double>(c.r) + c.g + c.b);
+    // Margins for sensor noise and the renderer's rounding.
+    return std::make_pair(static_cast<float>(std::max(0.0, 0.9 * sum * render.ambient - 6)),
+                          static_cast<float>(std::min(765.0, 1.04 * sum * (render.ambient + render.diffuse) + 6)));
   };
   std::vector<Known> known;
+  auto addKnown = [&](const std::string& name, const Rgba& c) {
+    const auto range = shades(c);
+    known.push_back({name, c, range.first, range.second});
+  };
   std::set<std::string> names;
   requireMaxSize("catalogue.objects", catalogue_.objects.size(), 250);  // class labels are 8-bit
   for (const auto& o : catalogue_.objects) {
@@ -459,43 +830,88 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
     if (!names.insert(o.name).second) {
       throw ValidationError("catalogue object '" + o.name + "' appears twice; names must be unique");
     }
-    for (int i = 0; i < 3; ++i) requirePositive("size of catalogue object '" + o.name + "'", o.size[i]);
-    known.push_back({"object '" + o.name + "'", o.color});
+    const std::string what = "size of catalogue object '" + o.name + "'";
+    if (o.shape.type == Shape::Type::Box) {
+      for (int i = 0; i < 3; ++i) requirePositive(what, o.shape.box_size[i]);
+    } else {
+      requirePositive(what, o.shape.radius);
+      if (o.shape.type == Shape::Type::Cylinder) requirePositive(what, o.shape.length);
+    }
+    addKnown("object '" + o.name + "'", o.color);
   }
+  throwIfInvalid(checkDistinguishable(catalogue_));
   const RobotAppearance& r = catalogue_.robot;
   if (r.present) {
     requirePositive("robot.body_radius", r.body_radius);
+    requirePositive("robot.body_area", r.body_area);
     requireFinite("robot.body_top", r.body_top);
-    known.push_back({"the robot's body", r.body_color});
-    if (r.marker_size.minCoeff() > 0) known.push_back({"the robot's marker", r.marker_color});
+    addKnown("the robot's body", r.body_color);
+    if (r.marker_size.minCoeff() > 0) addKnown("the robot's marker", r.marker_color);
   }
   const std::size_t looked_for = known.size();
-  for (const Rgba& c : catalogue_.other_colors) known.push_back({"another visual of the scene", c});
-  const cv::Vec3b bg = RenderOptions().background_bgr;
-  known.push_back({"the background", Rgba{bg[2] / 255.0f, bg[1] / 255.0f, bg[0] / 255.0f, 1}});
+  for (const Rgba& c : catalogue_.other_colors) addKnown("another visual of the scene", c);
+  const cv::Vec3b bg = render.background_bgr;
+  const float bg_sum = static_cast<float>(bg[0] + bg[1] + bg[2]);
+  known.push_back({"the background", Rgba{bg[2] / 255.0f, bg[1] / 255.0f, bg[0] / 255.0f, 1}, bg_sum - 6, bg_sum + 6});
 
+  constexpr float kMinTolerance = 0.01f;
   for (std::size_t i = 0; i < looked_for; ++i) {
     const cv::Vec3f ci = chromaOf(known[i].color);
+    // Colours of the same class (same-coloured objects) share the label and do not bound each other.
+    auto sharesClass = [&](std::size_t j) {
+      return j < catalogue_.objects.size() && i < catalogue_.objects.size() &&
+             sameColourClass(known[i].color, known[j].color);
+    };
     float nearest = std::numeric_limits<float>::max();
-    std::size_t nearest_j = 0;
     for (std::size_t j = 0; j < known.size(); ++j) {
-      if (j == i) continue;
-      const float d = chebyshev(ci, chromaOf(known[j].color));
-      if (d < nearest) {
-        nearest = d;
-        nearest_j = j;
+      if (j != i && !sharesClass(j)) nearest = std::min(nearest, chebyshev(ci, chromaOf(known[j].color)));
+    }
+    ColorClass cls;
+    cls.chroma = ci;
+    cls.tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), nearest / 2);
+    if (cls.tolerance < kMinTolerance) {
+      // Too close in chromaticity (a grey object on a grey floor): tell them apart by brightness as well, if
+      // none of the close colours can take any of this colour's shades.
+      cls.min_brightness = known[i].shade_lo;
+      cls.max_brightness = known[i].shade_hi;
+      float rest = std::numeric_limits<float>::max();
+      for (std::size_t j = 0; j < known.size(); ++j) {
+        if (j == i || sharesClass(j)) continue;
+        const float d = chebyshev(ci, chromaOf(known[j].color));
+        if (d >= 4 * kMinTolerance) {
+          rest = std::min(rest, d);
+          continue;
+        }
+        if (known[j].shade_hi >= cls.min_brightness && known[j].shade_lo <= cls.max_brightness) {
+          throw ValidationError(
+              "the colour of " + known[i].name + " " + describeColor(known[i].color) + " is too close to that of " +
+              known[j].name + " " + describeColor(known[j].color) +
+              " to tell them apart: their chromaticities differ by " + describeNumber(d) +
+              " and their shades overlap in brightness (" + describeNumber(cls.min_brightness) + "-" +
+              describeNumber(cls.max_brightness) + " against " + describeNumber(known[j].shade_lo) + "-" +
+              describeNumber(known[j].shade_hi) + " of 765); give it another colour, or a clearly darker or lighter one");
+        }
       }
+      cls.tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), rest / 2);
     }
-    const float tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), nearest / 2);
-    if (tolerance < 0.01f) {
-      throw ValidationError("the colour of " + known[i].name + " " + describeColor(known[i].color) +
-                            " is too close to that of " + known[nearest_j].name + " " +
-                            describeColor(known[nearest_j].color) +
-                            " to tell them apart by colour (identity is by colour)");
+    cls.name = i < catalogue_.objects.size() ? catalogue_.objects[i].name
+               : (i == catalogue_.objects.size() ? std::string("robot_body") : std::string("robot_marker"));
+    classes_.push_back(cls);
+    // One pixel label per colour class: same-coloured objects share the first one's.
+    int label = 0;
+    for (std::size_t j = 0; j < i && !label; ++j) {
+      if (sharesClass(j)) label = label_of_[j];
     }
-    std::string name = i < catalogue_.objects.size() ? catalogue_.objects[i].name
-                       : (i == catalogue_.objects.size() ? std::string("robot_body") : std::string("robot_marker"));
-    classes_.push_back({name, ci, tolerance});
+    if (!label) {
+      labels_.push_back(cls);
+      label = static_cast<int>(labels_.size());
+    } else {
+      ColorClass& shared = labels_[label - 1];  // every member's shades, within the tightest chromaticity box
+      shared.tolerance = std::min(shared.tolerance, cls.tolerance);
+      shared.min_brightness = std::min(shared.min_brightness, cls.min_brightness);
+      shared.max_brightness = std::max(shared.max_brightness, cls.max_brightness);
+    }
+    label_of_.push_back(label);
   }
 }
 
@@ -523,12 +939,12 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   out.downward = isDownward(world_from_camera);
   const Pinhole cam(camera_, world_from_camera);
 
-  // One pass over the image: brightness (b + g + r) and the colour class of every pixel (0 = none, k + 1 =
-  // classes_[k]), by chromaticity. The boxes do not overlap (each is at most half the distance to the next
+  // One pass over the image: brightness (b + g + r) and the colour label of every pixel (0 = none, k + 1 =
+  // labels_[k]), by chromaticity (and brightness, for a grey class). The boxes do not overlap (each is at most half the distance to the next
   // colour), so the first match is the only one.
   cv::Mat brightness(bgr.size(), CV_16U), label(bgr.size(), CV_8U);
-  const int n = static_cast<int>(classes_.size());
-  std::vector<cv::Rect> where(classes_.size());  // each class's bounding box, grown by a pixel
+  const int n = static_cast<int>(labels_.size());
+  std::vector<cv::Rect> where(labels_.size());  // each label's bounding box, grown by a pixel
   {
     std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
     std::array<float, 766> inverse;  // 1 / (b + g + r)
@@ -540,7 +956,7 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
     // max |3c - sum| / sum.
     float grey_margin = 3.0f;
     const cv::Vec3f grey(1.0f / 3, 1.0f / 3, 1.0f / 3);
-    for (const ColorClass& c : classes_) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
+    for (const ColorClass& c : labels_) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
     grey_margin = std::max(0.0f, grey_margin * 0.999f);
     for (int j = 0; j < bgr.rows; ++j) {
       const uchar* p = bgr.ptr<uchar>(j);
@@ -570,9 +986,9 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         const float inv = inverse[sum];
         const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
         for (int k = 0; k < n; ++k) {
-          const ColorClass& c = classes_[k];
+          const ColorClass& c = labels_[k];
           if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
-              std::fabs(cr - c.chroma[2]) <= c.tolerance) {
+              std::fabs(cr - c.chroma[2]) <= c.tolerance && sum >= c.min_brightness && sum <= c.max_brightness) {
             l[i] = static_cast<uchar>(k + 1);
             last_label = k + 1;
             x0[k] = std::min(x0[k], i);
@@ -606,105 +1022,80 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
     return mask;
   };
 
-  for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
-    const ObjectAppearance& obj = catalogue_.objects[i];
-    Blob blob;
-    if (!makeBlob(classMask(i), where[i], options_.min_blob_pixels, blob)) {
-      out.missing.push_back(obj.name);
+  // Objects, colour class by colour class: with one object of a colour its largest blob; with several, every
+  // blob is measured as each of them and the best-matching pairs are taken (greedy on the mismatch cost).
+  const Measurer measurer{camera_, options_, cam, brightness, bgr.size(), out.downward};
+  std::vector<ObjectDetection> found(catalogue_.objects.size());
+  std::vector<bool> seen(catalogue_.objects.size(), false);
+  for (std::size_t label = 0; label < labels_.size(); ++label) {
+    std::vector<std::size_t> members;
+    for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
+      if (label_of_[i] == static_cast<int>(label) + 1) members.push_back(i);
+    }
+    if (members.empty()) continue;
+    const cv::Mat mask = classMask(label);
+    if (members.size() == 1) {
+      Blob blob;
+      if (!makeBlob(mask, where[label], options_.min_blob_pixels, blob)) continue;
+      double cost = 0;
+      bool cut = false;
+      seen[members[0]] = measurer.measure(catalogue_.objects[members[0]], blob, found[members[0]], cost, cut);
       continue;
     }
-    ObjectDetection det;
-    det.name = obj.name;
-    det.centroid = blob.centroid;
-    det.pixel_area = blob.pixels;
-    det.contour = blob.contour;
-    const double sx = obj.size.x(), sy = obj.size.y(), sz = obj.size.z();
-    bool ok = false;
-    if (out.downward) {
-      const cv::Mat top = brightestShade(blob, brightness, options_.top_face_brightness);
-      det.top_contour = largestContour(top, blob.roi.tl());
-      const int top_pixels = cv::countNonZero(top);
-      ok = det.top_contour.size() >= 4;
-      if (ok) {  // a top face cut by the image border cannot be measured
-        const cv::Rect r = cv::boundingRect(det.top_contour);
-        ok = r.x > 0 && r.y > 0 && r.br().x < bgr.cols && r.br().y < bgr.rows;
-      }
-      std::array<Eigen::Vector3d, 4> corners;
-      if (ok) {
-        const std::array<cv::Point2d, 4> quad = fitQuadrilateral(det.top_contour);
-        for (int k = 0; k < 4 && ok; ++k) {
-          const cv::Point2d p = toRenderer(quad[k]);
-          ok = cam.toPlane(p.x, p.y, sz, corners[k]);
-        }
-      }
-      if (ok) {
-        det.top_corners.assign(corners.begin(), corners.end());
-        const Eigen::Vector3d top_centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
-        // Pixels the top face should cover if whole: its area over one pixel's footprint at its depth.
-        const double depth = cam.depth(top_centre);
-        const double expected_pixels = sx * sy * camera_.fx * camera_.fy / (depth * depth);
-        ok = depth > 0 && top_pixels >= options_.min_top_fraction * expected_pixels;  // else occluded or cut
-        det.position = top_centre - Eigen::Vector3d(0, 0, 0.5 * sz);
-        // Side lengths and directions: edges 0-1 and 2-3 are one pair, 1-2 and 3-0 the other.
-        const Eigen::Vector3d e[4] = {corners[1] - corners[0], corners[2] - corners[1], corners[3] - corners[2],
-                                      corners[0] - corners[3]};
-        const double len_a = 0.5 * (e[0].head<2>().norm() + e[2].head<2>().norm());
-        const double len_b = 0.5 * (e[1].head<2>().norm() + e[3].head<2>().norm());
-        // Each edge's direction, turned onto the first pair's direction (modulo pi).
-        double angles[4];
-        for (int k = 0; k < 4; ++k) angles[k] = std::atan2(e[k].y(), e[k].x()) - (k % 2 ? M_PI / 2 : 0);
-        const bool square = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy);
-        det.yaw_period = square ? M_PI / 2 : M_PI;
-        // The box's x side is its longer one (or the first if square): which measured pair is that?
-        double offset = 0;
-        if (!square && ((sx > sy) != (len_a >= len_b))) offset = M_PI / 2;
-        const double factor = 2 * M_PI / det.yaw_period;
-        double c = 0, s = 0;
-        for (int k = 0; k < 4; ++k) {
-          c += std::cos(factor * angles[k]);
-          s += std::sin(factor * angles[k]);
-        }
-        det.yaw = foldAngle(std::atan2(s, c) / factor + offset, det.yaw_period);
-        det.yaw_known = true;
-        det.measured_length = std::max(len_a, len_b);
-        det.measured_width = std::min(len_a, len_b);
-        const double ratio = (len_a * len_b) / (sx * sy);
-        det.confidence = std::min(ratio, 1 / ratio);
-      }
-    } else {
-      // Ground contact: the blob's lower outline is the box's near bottom edges, on the floor.
-      const Footprint fp = groundFootprint(blob, cam, world_from_camera.translation(), 0.5 * (sx + sy), bgr.rows);
-      ok = fp.ok;
-      if (ok) {
-        det.position = Eigen::Vector3d(fp.centre.x(), fp.centre.y(), 0.5 * sz);
-        det.yaw_period = std::fabs(sx - sy) <= 1e-6 * std::max(sx, sy) ? M_PI / 2 : M_PI;
-        det.yaw_known = false;  // a few pixels of edge: too coarse to report (see groundFootprint)
-        det.yaw = 0;
-        const double depth = cam.depth(Eigen::Vector3d(fp.contact.x(), fp.contact.y(), 0));
-        det.measured_length = blob.roi.width * depth / camera_.fx;
-        det.measured_width = blob.roi.height * depth / camera_.fy;
-        const double ratio = det.measured_width / sz;
-        det.confidence = std::min(ratio, 1 / ratio) * (blob.touches_border ? 0.5 : 1.0);
+    const std::vector<Blob> blobs = allBlobs(mask, where[label], options_.min_blob_pixels, 3 * members.size());
+    struct Candidate {
+      double cost;
+      std::size_t object, blob;
+      bool measured;  // false: cut by the border, plausibly this object but not measurable
+      ObjectDetection det;
+    };
+    std::vector<Candidate> candidates;
+    for (std::size_t b = 0; b < blobs.size(); ++b) {
+      for (std::size_t i : members) {
+        Candidate c{0, i, b, false, {}};
+        bool cut = false;
+        c.measured = measurer.measure(catalogue_.objects[i], blobs[b], c.det, c.cost, cut);
+        if ((c.measured || cut) && c.cost < kMaxMatchCost) candidates.push_back(std::move(c));
       }
     }
-    if (ok) {
-      out.objects.emplace(obj.name, std::move(det));
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Candidate& x, const Candidate& y) { return x.cost < y.cost; });
+    std::vector<bool> blob_taken(blobs.size(), false);
+    for (Candidate& c : candidates) {
+      if (seen[c.object] || blob_taken[c.blob]) continue;
+      blob_taken[c.blob] = true;
+      // A blob that another still-unplaced object of the colour fits about as well (a cut outline, a cylinder
+      // and a ball of one size side-on) is ambiguous: better missing than reported as the wrong object.
+      bool ambiguous = false;
+      for (const Candidate& other : candidates) {
+        ambiguous = ambiguous || (other.blob == c.blob && other.object != c.object && !seen[other.object] &&
+                                  other.cost < c.cost + kAmbiguityMargin);
+      }
+      if (ambiguous || !c.measured) continue;
+      seen[c.object] = true;
+      found[c.object] = std::move(c.det);
+    }
+  }
+  for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
+    if (seen[i]) {
+      out.objects.emplace(catalogue_.objects[i].name, std::move(found[i]));
     } else {
-      out.missing.push_back(obj.name);
+      out.missing.push_back(catalogue_.objects[i].name);
     }
   }
 
-  // The robot, from above: the centre of its body's top disc, the heading from the marker.
+  // The robot, from above: the centre of its body's top face, the heading from the marker.
   const RobotAppearance& robot = catalogue_.robot;
   if (robot.present && out.downward) {
-    const std::size_t body_class = catalogue_.objects.size();
+    const std::size_t body_label = label_of_[catalogue_.objects.size()] - 1;
+    const bool has_marker = classes_.size() > catalogue_.objects.size() + 1;
+    const std::size_t marker_label = has_marker ? label_of_[catalogue_.objects.size() + 1] - 1 : 0;
     Blob body;
-    if (makeBlob(classMask(body_class), where[body_class], options_.min_blob_pixels, body)) {
+    if (makeBlob(classMask(body_label), where[body_label], options_.min_blob_pixels, body)) {
       cv::Mat disc = brightestShade(body, brightness, options_.top_face_brightness);
       cv::Mat marker_mask;
-      const bool has_marker = classes_.size() > body_class + 1;
       if (has_marker) {
-        marker_mask = classMask(body_class + 1);
+        marker_mask = classMask(marker_label);
         // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
         cv::Mat grown;
         cv::dilate(marker_mask(body.roi), grown, cv::Mat());
@@ -725,8 +1116,8 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
             r.pixel_area = body.pixels;
             r.contour = body.contour;
             const double depth = cam.depth(centre);
-            const double disc_area = m.m00 * depth * depth / (camera_.fx * camera_.fy);
-            const double ratio = disc_area / (M_PI * robot.body_radius * robot.body_radius);
+            const double top_area = m.m00 * depth * depth / (camera_.fx * camera_.fy);
+            const double ratio = top_area / robot.body_area;
             r.confidence = std::min(ratio, 1 / ratio);
           }
         }
@@ -736,9 +1127,9 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
         // its top face's centre, on the plane of the marker's top.
         const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
         std::vector<std::vector<cv::Point>> contours;
-        if (!where[body_class + 1].empty()) {
-          cv::findContours(marker_mask(where[body_class + 1]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
-                           where[body_class + 1].tl());
+        if (!where[marker_label].empty()) {
+          cv::findContours(marker_mask(where[marker_label]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
+                           where[marker_label].tl());
         }
         int best = 0;
         Eigen::Vector3d marker_world;

@@ -63,7 +63,7 @@ void Perception::onConfigure() {
 void Perception::onScene(const RenderedCamera& camera) {
   // The camera's mount on the robot: chain the fixed nodes from the camera's frame up to the robot's root.
   const core::SceneDescription scene = camera.scene();
-  const std::string root = scene.robot_root;
+  const std::string root = scene.robot_root;  // from the world file's roles
   Eigen::Isometry3d root_from_camera = Eigen::Isometry3d::Identity();
   std::string frame = camera.model().frame;
   const core::SceneNode* node = scene.findNode(frame);

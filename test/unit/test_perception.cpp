@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "xpersif/core/perception.h"
@@ -135,7 +137,10 @@ TEST(PerceptionCatalogue, FromTheDefaultScene) {
   ASSERT_EQ(cat.objects.size(), 4u);
   for (int i = 0; i < 4; ++i) EXPECT_EQ(cat.objects[i].name, kCubes[i]);
   EXPECT_FLOAT_EQ(cat.objects[0].color.r, 0.85f);
-  EXPECT_TRUE(cat.objects[2].size.isApprox(Eigen::Vector3d(0.04, 0.04, 0.04)));
+  EXPECT_TRUE(cat.objects[2].shape.box_size.isApprox(Eigen::Vector3d(0.04, 0.04, 0.04)));
+  EXPECT_DOUBLE_EQ(cat.objects[2].height(), 0.04);
+  EXPECT_EQ(cat.robot.name, defaultWorld().scene.robot_root);
+  EXPECT_EQ(cat.robot.body_shape.type, Shape::Type::Cylinder);
   ASSERT_TRUE(cat.robot.present);
   EXPECT_DOUBLE_EQ(cat.robot.body_radius, 0.035);
   EXPECT_FLOAT_EQ(cat.robot.body_color.g, 0.45f);
@@ -310,7 +315,7 @@ TEST(FeatureExtractor, RejectsBadInput) {
   EXPECT_THROW(FeatureExtractor(cat, camera), ValidationError);
   camera = *w.scene.findCamera("overhead");
   PerceptionCatalogue twins = cat;
-  twins.objects[1].color = twins.objects[0].color;  // identity is by colour: two reds cannot be told apart
+  twins.objects[1].color = twins.objects[0].color;  // two red 4 cm cubes: the camera cannot tell them apart
   try {
     FeatureExtractor bad(twins, camera);
     ADD_FAILURE() << "two objects of one colour were accepted";
@@ -319,7 +324,7 @@ TEST(FeatureExtractor, RejectsBadInput) {
     EXPECT_NE(std::string(e.what()).find("green_cube"), std::string::npos) << e.what();
   }
   PerceptionCatalogue flat = cat;
-  flat.objects[0].size.z() = 0;
+  flat.objects[0].shape.box_size.z() = 0;
   EXPECT_THROW(FeatureExtractor(flat, camera), ValidationError);
   PerceptionOptions options;
   options.morphology_kernel = 2;
@@ -461,4 +466,278 @@ TEST(Perception, FoldAngle) {
   EXPECT_NEAR(foldAngle(-M_PI / 4, M_PI / 2), M_PI / 4, 1e-12) << "(-p/2, p/2]";
   EXPECT_NEAR(foldAngle(3 * M_PI, 2 * M_PI), M_PI, 1e-12);
   EXPECT_NEAR(foldAngle(-7.0, 2 * M_PI), -7.0 + 2 * M_PI, 1e-12);
+}
+
+// ---- boxes, cylinders and spheres ---------------------------------------------------------------------
+
+namespace {
+
+/// The default world with other objects: a cube and a long box of one colour, a cylinder, a sphere, and a
+/// cylinder and a sphere of another shared colour (the world file's objects block replaced).
+struct ShapesWorld {
+  WorldSpec spec;
+  SceneDescription scene;
+  FrameTransforms initial;
+  ShapesWorld() {
+    const std::string dir = std::string(XPERSIF_SOURCE_DIR) + "/worlds";
+    std::ifstream in(dir + "/default.yaml");
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string yaml = text.str();
+    const std::size_t from = yaml.find("\nobjects:"), to = yaml.find("\ncameras:");
+    yaml.replace(from, to - from, R"(
+objects:
+  - {name: red_cube, size: 0.04, color: [0.85, 0.1, 0.1, 1.0], pose: {x: 0.05, y: 0.15}}
+  - {name: red_bar, size: [0.08, 0.03, 0.03], color: [0.85, 0.1, 0.1, 1.0], pose: {x: 0.2, y: 0.15, yaw: 0.5}}
+  - {name: blue_can, shape: cylinder, radius: 0.02, length: 0.05, color: [0.1, 0.2, 0.85, 1.0], pose: {x: 0.25, y: -0.1}}
+  - {name: green_ball, shape: sphere, radius: 0.025, color: [0.1, 0.7, 0.15, 1.0], pose: {x: 0.0, y: -0.15}}
+  - {name: orange_can, shape: cylinder, radius: 0.02, length: 0.04, color: [0.95, 0.5, 0.05, 1.0], pose: {x: -0.15, y: 0.2}}
+  - {name: orange_ball, shape: sphere, radius: 0.02, color: [0.95, 0.5, 0.05, 1.0], pose: {x: -0.1, y: -0.2}}
+)");
+    spec = parseWorld(yaml, dir, "shapes");
+    PhysicsWorld world(spec);
+    scene = world.scene();
+    initial = world.dynamicTransforms();
+  }
+};
+
+const ShapesWorld& shapesWorld() {
+  static const ShapesWorld w;
+  return w;
+}
+
+const char* const kShapes[] = {"red_cube", "red_bar", "blue_can", "green_ball", "orange_can", "orange_ball"};
+
+/// Every object of @p names found within @p tol of where it was drawn (3-D centre; @p planar_only: x, y).
+void expectShapesAt(const Detections& d, const FrameTransforms& current, const std::vector<std::string>& names,
+                    double tol, bool planar_only = false) {
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    ASSERT_TRUE(d.objects.count(name)) << "not detected";
+    const ObjectDetection& det = d.objects.at(name);
+    const Eigen::Vector3d truth = current.at(name).translation();
+    const double err = planar_only ? (det.position - truth).head<2>().norm() : (det.position - truth).norm();
+    EXPECT_LT(err, tol) << "measured " << det.position.transpose() << ", truth " << truth.transpose();
+  }
+}
+
+}  // namespace
+
+TEST(PerceptionCatalogue, ShapesFromTheSceneRoles) {
+  const PerceptionCatalogue cat = PerceptionCatalogue::fromScene(shapesWorld().scene);
+  ASSERT_EQ(cat.objects.size(), 6u);
+  EXPECT_EQ(cat.find("blue_can")->shape.type, Shape::Type::Cylinder);
+  EXPECT_DOUBLE_EQ(cat.find("blue_can")->height(), 0.05);
+  EXPECT_EQ(cat.find("green_ball")->shape.type, Shape::Type::Sphere);
+  EXPECT_DOUBLE_EQ(cat.find("green_ball")->height(), 0.05);
+  EXPECT_TRUE(cat.find("red_bar")->footprint().isApprox(Eigen::Vector2d(0.08, 0.03)));
+  EXPECT_TRUE(cat.find("orange_ball")->footprint().isApprox(Eigen::Vector2d(0.04, 0.04)));
+  EXPECT_EQ(checkDistinguishable(cat), "");
+}
+
+TEST(FeatureExtractor, ShapesFromTheOverheadCamera) {
+  const ShapesWorld& w = shapesWorld();
+  const FeatureExtractor fx(PerceptionCatalogue::fromScene(w.scene), *w.scene.findCamera("overhead"));
+  const Frame f = render(w.scene, w.initial, "overhead");
+  const Detections d = fx.extract(f.image, f.world_from_camera);
+  EXPECT_TRUE(d.missing.empty());
+  expectShapesAt(d, w.initial, {std::begin(kShapes), std::end(kShapes)}, 0.003);
+  ASSERT_EQ(d.objects.count("red_bar"), 1u);
+  const ObjectDetection& bar = d.objects.at("red_bar");
+  EXPECT_DOUBLE_EQ(bar.yaw_period, M_PI);
+  EXPECT_LT(yawError(bar.yaw, 0.5, M_PI), 3 * kDeg);
+  EXPECT_NEAR(bar.measured_length, 0.08, 0.002);
+  EXPECT_NEAR(bar.measured_width, 0.03, 0.002);
+  for (const char* name : {"blue_can", "green_ball", "orange_can", "orange_ball"}) {
+    SCOPED_TRACE(name);
+    ASSERT_EQ(d.objects.count(name), 1u);
+    const ObjectDetection& o = d.objects.at(name);
+    EXPECT_FALSE(o.yaw_known) << "rotationally symmetric";
+    EXPECT_DOUBLE_EQ(o.yaw_period, 2 * M_PI);
+    EXPECT_EQ(o.yaw, 0.0);
+    EXPECT_NEAR(o.measured_length, 2 * PerceptionCatalogue::fromScene(w.scene).find(name)->shape.radius, 0.004);
+    EXPECT_GT(o.confidence, 0.7);
+  }
+  EXPECT_TRUE(d.robot.found);
+}
+
+// Random places and yaws, the pairs of one colour included: each found where it is, never swapped (a swap
+// puts both centimetres off).
+TEST(FeatureExtractor, RandomShapeScenesFromTheOverheadCamera) {
+  const ShapesWorld& w = shapesWorld();
+  const FeatureExtractor fx(PerceptionCatalogue::fromScene(w.scene), *w.scene.findCamera("overhead"));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> ux(-0.38, 0.38), uy(-0.23, 0.23), uyaw(-M_PI, M_PI);
+  double worst = 0;
+  for (int k = 0; k < 25; ++k) {
+    SCOPED_TRACE("scene " + std::to_string(k));
+    FrameTransforms current = w.initial;
+    std::vector<Eigen::Vector2d> taken{current.at(w.scene.robot_root).translation().head<2>()};
+    for (const char* name : kShapes) {
+      for (;;) {
+        const Eigen::Vector2d p(ux(rng), uy(rng));
+        bool free = true;
+        for (const auto& q : taken) free = free && (p - q).norm() > 0.11;
+        if (!free) continue;
+        taken.push_back(p);
+        current[name] = planar(p.x(), p.y(), current.at(name).translation().z(), uyaw(rng));
+        break;
+      }
+    }
+    const Frame f = render(w.scene, current, "overhead");
+    const Detections d = fx.extract(f.image, f.world_from_camera);
+    EXPECT_TRUE(d.missing.empty());
+    expectShapesAt(d, current, {std::begin(kShapes), std::end(kShapes)}, 0.003);
+    for (const char* name : kShapes) {
+      if (d.objects.count(name)) {
+        worst = std::max(worst, (d.objects.at(name).position - current.at(name).translation()).norm());
+      }
+    }
+    if (d.objects.count("red_bar")) {
+      EXPECT_LT(yawError(d.objects.at("red_bar").yaw, yawOf(current.at("red_bar")), M_PI), 3 * kDeg);
+    }
+  }
+  std::printf("shapes, overhead: worst position error %.2f mm over 25 scenes\n", worst * 1000);
+}
+
+TEST(FeatureExtractor, RobotCameraFindsEachShapeAhead) {
+  const ShapesWorld& w = shapesWorld();
+  const FeatureExtractor fx(PerceptionCatalogue::fromScene(w.scene), *w.scene.findCamera("robot_camera"));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> dist(0.12, 0.25), side(-0.25, 0.25), yaw(-M_PI, M_PI);
+  for (const char* target : kShapes) {
+    for (int k = 0; k < 6; ++k) {
+      SCOPED_TRACE(std::string(target) + " case " + std::to_string(k));
+      // The robot at (-0.3, 0) facing +x; the target ahead; everything else behind the robot, out of view.
+      FrameTransforms current = w.initial;
+      double y_behind = -0.25;
+      for (const char* name : kShapes) {
+        current[name] = planar(-0.42, y_behind, current.at(name).translation().z(), 0);
+        y_behind += 0.1;
+      }
+      const double r = dist(rng), a = side(rng);
+      current[target] = planar(-0.3 + 0.03 + r * std::cos(a), r * std::sin(a), current.at(target).translation().z(),
+                               yaw(rng));
+      const Frame f = render(w.scene, current, "robot_camera");
+      const Detections d = fx.extract(f.image, f.world_from_camera);
+      EXPECT_FALSE(d.downward);
+      ASSERT_EQ(d.objects.count(target), 1u);
+      EXPECT_EQ(d.objects.size(), 1u) << "the others are behind the robot";
+      expectShapesAt(d, current, {target}, 0.010, true);
+      EXPECT_FALSE(d.objects.at(target).yaw_known);
+    }
+  }
+}
+
+TEST(FeatureExtractor, RobotCameraKeepsSameColouredObjectsApart) {
+  const ShapesWorld& w = shapesWorld();
+  const FeatureExtractor fx(PerceptionCatalogue::fromScene(w.scene), *w.scene.findCamera("robot_camera"));
+  FrameTransforms current = w.initial;
+  for (const char* name : kShapes) current[name] = planar(-0.42, 0.25, current.at(name).translation().z(), 0);
+  // Side by side in the view (bearings from the camera near (-0.27, 0): 21, -21, 6 and -5 degrees), none hidden.
+  current["red_cube"] = planar(-0.05, 0.09, 0.02, 0.3);
+  current["red_bar"] = planar(0.05, -0.12, 0.015, 1.4);
+  current["orange_can"] = planar(0.0, 0.03, 0.02, 0);
+  current["orange_ball"] = planar(-0.05, -0.02, 0.02, 0);
+  const Frame f = render(w.scene, current, "robot_camera");
+  const Detections d = fx.extract(f.image, f.world_from_camera);
+  expectShapesAt(d, current, {"red_cube", "red_bar", "orange_can", "orange_ball"}, 0.015, true);
+}
+
+TEST(FeatureExtractor, LookAlikeObjectsAreRefusedNamingBoth) {
+  PerceptionCatalogue cat = PerceptionCatalogue::fromScene(shapesWorld().scene);
+  ObjectAppearance twin = *cat.find("orange_can");
+  twin.name = "orange_can_2";
+  twin.shape.radius *= 1.1;  // within 15 %
+  cat.objects.push_back(twin);
+  const std::string why = checkDistinguishable(cat);
+  EXPECT_NE(why.find("'orange_can'"), std::string::npos) << why;
+  EXPECT_NE(why.find("'orange_can_2'"), std::string::npos) << why;
+  EXPECT_NE(why.find("cylinders"), std::string::npos) << why;
+  try {
+    FeatureExtractor fx(cat, *shapesWorld().scene.findCamera("overhead"));
+    ADD_FAILURE() << "look-alikes accepted";
+  } catch (const ValidationError& e) {
+    EXPECT_EQ(std::string(e.what()).find(why), 0u) << e.what();
+  }
+  cat.objects.back().shape.radius = 0.03;  // 50 % larger: told apart by size
+  EXPECT_EQ(checkDistinguishable(cat), "");
+  cat.objects.back().shape.radius = 0.02;
+  cat.objects.back().shape.type = Shape::Type::Sphere;  // like orange_ball now
+  EXPECT_NE(checkDistinguishable(cat).find("'orange_ball' and 'orange_can_2'"), std::string::npos);
+}
+
+// A robot whose root link is not called base_link, with a box body and its marker on another link.
+TEST(FeatureExtractor, RobotWithABoxBodyAndAnotherRootName) {
+  const ShapesWorld& w = shapesWorld();
+  SceneDescription scene = w.scene;
+  const std::string old_root = scene.robot_root;
+  FrameTransforms current = w.initial;
+  for (SceneNode& n : scene.nodes) {
+    if (n.name == old_root) n.name = "chassis";
+    if (n.parent == old_root) n.parent = "chassis";
+    if (n.name == old_root || n.name == "chassis") {
+      for (Visual& v : n.visuals) {
+        if (v.shape.type == Shape::Type::Cylinder && v.shape.radius > 0.02) {
+          v.shape.type = Shape::Type::Box;
+          v.shape.box_size = Eigen::Vector3d(0.07, 0.05, 0.03);
+        }
+      }
+    }
+  }
+  scene.robot_root = "chassis";
+  current["chassis"] = current.at(old_root);
+  current.erase(old_root);
+  const PerceptionCatalogue cat = PerceptionCatalogue::fromScene(scene);
+  ASSERT_TRUE(cat.robot.present);
+  EXPECT_EQ(cat.robot.name, "chassis");
+  EXPECT_EQ(cat.robot.body_shape.type, Shape::Type::Box);
+  EXPECT_NEAR(cat.robot.body_area, 0.07 * 0.05, 1e-12);
+  const FeatureExtractor fx(cat, *scene.findCamera("overhead"));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ux(-0.35, 0.35), uy(-0.2, 0.2), uyaw(-M_PI, M_PI);
+  for (int k = 0; k < 10; ++k) {
+    SCOPED_TRACE("pose " + std::to_string(k));
+    const Eigen::Isometry3d pose = planar(ux(rng), uy(rng), current.at("chassis").translation().z(), uyaw(rng));
+    for (const char* name : kShapes) current[name] = planar(5.0, 5.0, 0.02, 0);  // out of view
+    current["chassis"] = pose;
+    const Frame f = render(scene, current, "overhead");
+    const Detections d = fx.extract(f.image, f.world_from_camera);
+    ASSERT_TRUE(d.robot.found);
+    EXPECT_LT(std::hypot(d.robot.x - pose.translation().x(), d.robot.y - pose.translation().y()), 0.005);
+    ASSERT_TRUE(d.robot.yaw_known);
+    EXPECT_LT(yawError(d.robot.yaw, yawOf(pose), 2 * M_PI), 3 * kDeg);
+    EXPECT_GT(d.robot.confidence, 0.8);
+  }
+}
+
+// A grey object: found when no grey in view can take its shades (told apart by brightness), refused with a
+// sentence naming it and the grey it would be confused with otherwise.
+TEST(FeatureExtractor, GreyObjects) {
+  const ShapesWorld& w = shapesWorld();
+  SceneDescription scene = w.scene;
+  FrameTransforms current = w.initial;
+  scene.nodes.push_back(boxNode("grey_block", {0.04, 0.04, 0.04}, planar(-0.1, 0.1, 0.02, 0.3), {0.2f, 0.2f, 0.2f, 1}));
+  scene.objects.push_back("grey_block");
+  current["grey_block"] = scene.nodes.back().parent_from_node;
+  // The default robot's wheels are near-black: dark enough to be confused with a dark grey.
+  try {
+    FeatureExtractor bad(PerceptionCatalogue::fromScene(scene), *scene.findCamera("overhead"));
+    ADD_FAILURE() << "a dark grey object beside near-black wheels was accepted";
+  } catch (const ValidationError& e) {
+    EXPECT_NE(std::string(e.what()).find("grey_block"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("brightness"), std::string::npos) << e.what();
+  }
+  for (SceneNode& n : scene.nodes) {
+    for (Visual& v : n.visuals) {
+      if (v.color.r == 0.1f && v.color.g == 0.1f && v.color.b == 0.1f) v.color = {0.1f, 0.1f, 0.35f, 1};
+    }
+  }
+  const FeatureExtractor fx(PerceptionCatalogue::fromScene(scene), *scene.findCamera("overhead"));
+  const Frame f = render(scene, current, "overhead");
+  const Detections d = fx.extract(f.image, f.world_from_camera);
+  EXPECT_TRUE(d.missing.empty());
+  expectShapesAt(d, current, {"grey_block", "red_cube", "blue_can", "green_ball"}, 0.003);
+  EXPECT_LT(yawError(d.objects.at("grey_block").yaw, 0.3, M_PI / 2), 3 * kDeg);
+  EXPECT_TRUE(d.robot.found);
 }
