@@ -251,7 +251,7 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
   for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
   if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
   const double hx = setup_.arena.size_x / 2 - tidy_margin_, hy = setup_.arena.size_y / 2 - tidy_margin_;
-  for (const auto& [name, size] : setup_.object_sizes) {
+  for (const auto& [name, footprint] : setup_.object_footprints) {
     const ObjectFeatures* o = findObject(scene, name);
     if (!o || std::abs(o->position.x) > hx || std::abs(o->position.y) > hy) {
       misplaced.push_back(name);
@@ -259,7 +259,7 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
     }
     // Cubes pushed together leave no room for the robot at their faces: the later one of a close pair moves.
     for (const auto& other : scene.objects) {
-      if (other.name >= name || !setup_.object_sizes.count(other.name)) continue;
+      if (other.name >= name || !setup_.object_footprints.count(other.name)) continue;
       if (std::hypot(other.position.x - o->position.x, other.position.y - o->position.y) < tidy_spacing_) {
         misplaced.push_back(name);
         break;
