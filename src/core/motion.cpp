@@ -93,15 +93,11 @@ std::string ArenaGeometry::check() const {
   return problem.empty() ? checkPositive("arena.size_y", size_y) : problem;
 }
 
-double distanceToBox(const BoxObstacle& box, double x, double y) {
-  // Into the box's frame, then the usual signed distance to an axis-aligned square.
-  const double c = std::cos(box.yaw), s = std::sin(box.yaw);
-  const double dx = x - box.x, dy = y - box.y;
-  const double lx = c * dx + s * dy, ly = -s * dx + c * dy;
-  const double h = box.size / 2.0;
-  const double qx = std::fabs(lx) - h, qy = std::fabs(ly) - h;
-  const double outside = std::hypot(std::max(qx, 0.0), std::max(qy, 0.0));
-  return outside + std::min(std::max(qx, qy), 0.0);
+double distanceToObstacle(const Obstacle& obstacle, double x, double y) {
+  // Into the obstacle's frame, where the footprint knows its own distance.
+  const double c = std::cos(obstacle.yaw), s = std::sin(obstacle.yaw);
+  const double dx = x - obstacle.x, dy = y - obstacle.y;
+  return obstacle.footprint.signedDistance(c * dx + s * dy, -s * dx + c * dy);
 }
 
 std::string checkTargetInArena(const ArenaGeometry& arena, double x, double y, double robot_radius, double margin) {
@@ -403,29 +399,29 @@ PathPlanner::PathPlanner(ArenaGeometry arena, double robot_radius, double margin
   throwIfInvalid(checkInRange("resolution", resolution, 0.001, 0.1));
 }
 
-void PathPlanner::setObstacles(std::vector<BoxObstacle> obstacles) {
+void PathPlanner::setObstacles(std::vector<Obstacle> obstacles) {
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     const std::string field = "obstacles[" + std::to_string(i) + "]";
     throwIfInvalid(checkPose(field, Pose2D{obstacles[i].x, obstacles[i].y, obstacles[i].yaw}));
-    throwIfInvalid(checkPositive(field + ".size", obstacles[i].size));
+    throwIfInvalid(obstacles[i].footprint.check(field + ".footprint"));
   }
   obstacles_ = std::move(obstacles);
 }
 
 double PathPlanner::clearance(double x, double y) const {
   double c = std::min({arena_.size_x / 2.0 - std::fabs(x), arena_.size_y / 2.0 - std::fabs(y)});
-  for (const auto& box : obstacles_) c = std::min(c, distanceToBox(box, x, y));
+  for (const auto& o : obstacles_) c = std::min(c, distanceToObstacle(o, x, y));
   return c;
 }
 
 std::string PathPlanner::nearestThing(double x, double y) const {
   std::string name = "the wall";
   double best = std::min(arena_.size_x / 2.0 - std::fabs(x), arena_.size_y / 2.0 - std::fabs(y));
-  for (const auto& box : obstacles_) {
-    const double d = distanceToBox(box, x, y);
+  for (const auto& o : obstacles_) {
+    const double d = distanceToObstacle(o, x, y);
     if (d < best) {
       best = d;
-      name = box.name.empty() ? std::string("an obstacle") : box.name;
+      name = o.name.empty() ? std::string("an obstacle") : o.name;
     }
   }
   return name;
@@ -613,8 +609,8 @@ std::string PushOptions::check() const {
 
 std::string checkPushSide(const std::string& side) { return checkOneOf("side", side, {"-x", "+x", "-y", "+y"}); }
 
-PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double robot_radius,
-                  const ArenaGeometry& arena, const std::vector<BoxObstacle>& others, const PushOptions& options) {
+PushPlan planPush(const Obstacle& object, const PushRequest& request, double robot_radius,
+                  const ArenaGeometry& arena, const std::vector<Obstacle>& others, const PushOptions& options) {
   PushPlan plan;
   plan.object = request.object.empty() ? object.name : request.object;
   plan.side = request.side;
@@ -629,16 +625,19 @@ PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double 
   if (std::string p = arena.check(); !p.empty()) return reject(p);
   if (std::string p = checkPositive("robot_radius", robot_radius); !p.empty()) return reject(p);
   if (std::string p = checkPose(plan.object, Pose2D{object.x, object.y, object.yaw}); !p.empty()) return reject(p);
-  if (std::string p = checkPositive(plan.object + ".size", object.size); !p.empty()) return reject(p);
+  if (std::string p = object.footprint.check(plan.object + ".footprint"); !p.empty()) return reject(p);
   if (std::string p = checkPushSide(request.side); !p.empty()) return reject(p);
   if (std::string p = checkPositive("distance", request.distance); !p.empty()) return reject(p);
   if (request.distance > options.max_distance) {
     return reject("distance is " + num(request.distance) + " m; a push may be at most " + num(options.max_distance) +
                   " m long");
   }
-  const double h = object.size / 2.0;
-  if (std::string p = checkInRange("offset", request.offset, -h, h); !p.empty()) {
-    return reject(p + " (half the size of " + plan.object + ")");
+  const Footprint& shape = object.footprint;
+  const double max_offset = maxPushOffset(shape, request.side);
+  if (std::string p = checkInRange("offset", request.offset, -max_offset, max_offset); !p.empty()) {
+    return reject(p + " (" + plan.object + " is " + shape.describe() +
+                  (shape.isDisc() ? ": the contact must stay within half its radius of the push line, on its front)"
+                                  : ": the contact must stay on the face)"));
   }
 
   // Push direction: the inward normal of the pushed face, in the world frame.
@@ -649,9 +648,18 @@ PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double 
   plan.direction = normalizeAngle(object.yaw + local);
   const double dx = std::cos(plan.direction), dy = std::sin(plan.direction);
   const double lx = -dy, ly = dx;  // left of the push direction
-  // The disc touches a flat face at the point straight ahead of its centre.
-  const double cx = object.x - h * dx + request.offset * lx - robot_radius * dx;
-  const double cy = object.y - h * dy + request.offset * ly - robot_radius * dy;
+  // Robot centre at contact, relative to the object's centre: `back` behind it along the push, `lateral` to
+  // the left. A flat face is touched at the point straight ahead of the robot's centre. Two touching discs
+  // touch on their centre line, at the object's radius R from its centre out of R + robot_radius: for the
+  // contact to lie `offset` off the push line, the robot's centre lies offset * (R + robot_radius) / R off it.
+  double back = shape.depth(request.side) + robot_radius, lateral = request.offset;
+  if (shape.isDisc()) {
+    const double reach = shape.radius + robot_radius;
+    lateral = request.offset * reach / shape.radius;
+    back = std::sqrt(reach * reach - lateral * lateral);
+  }
+  const double cx = object.x - back * dx + lateral * lx;
+  const double cy = object.y - back * dy + lateral * ly;
   auto along = [&](double s) { return Pose2D{cx + s * dx, cy + s * dy, plan.direction}; };
   plan.contact = along(0);
   plan.approach = along(-options.standoff);
@@ -659,9 +667,9 @@ PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double 
   plan.retreat = along(request.distance - options.retreat);
   plan.object_end = Pose2D{object.x + request.distance * dx, object.y + request.distance * dy, object.yaw};
 
-  const std::string what = "the " + request.side + " face of " + plan.object;
+  const std::string what = "the " + request.side + (shape.isDisc() ? " side" : " face") + " of " + plan.object;
   PathPlanner space(arena, robot_radius, options.margin);
-  std::vector<BoxObstacle> rest;
+  std::vector<Obstacle> rest;
   for (const auto& o : others) {
     if (o.name != object.name) rest.push_back(o);
   }
@@ -670,8 +678,8 @@ PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double 
     return reject("the approach spot before " + what + " cannot be used: " + p);
   }
   // The object must stay clear of the walls (its footprint's extent along x and y) ...
-  const double ex = h * (std::fabs(std::cos(object.yaw)) + std::fabs(std::sin(object.yaw)));
-  const double ey = h * (std::fabs(std::sin(object.yaw)) + std::fabs(std::cos(object.yaw)));
+  double ex = 0, ey = 0;
+  worldHalfExtents(shape, object.yaw, ex, ey);
   const double room_x = arena.size_x / 2.0 - ex - options.object_clearance;
   const double room_y = arena.size_y / 2.0 - ey - options.object_clearance;
   if (std::fabs(plan.object_end.x) > room_x || std::fabs(plan.object_end.y) > room_y) {
@@ -684,19 +692,19 @@ PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double 
     return reject("the robot would hit the wall while pushing " + plan.object + ": " + p);
   }
   // Neither the object's nor the robot's swept path may hit another obstacle (the object's footprint is
-  // taken as its circumscribed disc: conservative for a rotating cube).
-  const double object_radius = h * std::sqrt(2.0);
+  // taken as its circumscribed disc: conservative, since the object may turn while pushed).
+  const double object_radius = shape.circumradius();
   const int samples = static_cast<int>(std::ceil((request.distance + options.standoff) / 0.002));
   for (int s = 0; s <= samples; ++s) {
     const double t = -options.standoff + (request.distance + options.standoff) * s / samples;
     const Pose2D r = along(t);
     for (const auto& o : rest) {
-      if (distanceToBox(o, r.x, r.y) < robot_radius + 0.002) {
+      if (distanceToObstacle(o, r.x, r.y) < robot_radius + 0.002) {
         return reject("the robot would hit " + o.name + " while pushing " + what);
       }
       if (t >= 0) {
         const double ox = object.x + t * dx, oy = object.y + t * dy;
-        if (distanceToBox(o, ox, oy) < object_radius + options.object_clearance) {
+        if (distanceToObstacle(o, ox, oy) < object_radius + options.object_clearance) {
           return reject("pushing " + plan.object + " " + num(request.distance) + " m from " + what +
                         " would push it into " + o.name);
         }

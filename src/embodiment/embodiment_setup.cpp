@@ -8,7 +8,7 @@ namespace xpersif {
 
 std::vector<std::string> EmbodimentSetup::objectNames() const {
   std::vector<std::string> names;
-  for (const auto& [name, size] : object_sizes) names.push_back(name);
+  for (const auto& [name, footprint] : object_footprints) names.push_back(name);
   return names;
 }
 
@@ -44,10 +44,7 @@ EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh) {
   if (radius <= 0) throw std::runtime_error("the robot in " + file + " has no collision shape on its root link");
   setup.robot_radius = radius;
   for (const auto& object : spec.objects) {
-    const double size = object.shape.type == core::Shape::Type::Box
-                            ? std::max(object.shape.box_size.x(), object.shape.box_size.y())
-                            : 2.0 * object.shape.radius;
-    setup.object_sizes[object.name] = size;
+    setup.object_footprints[object.name] = core::Footprint::ofShape(object.shape);
     setup.initial_poses[object.name] = {object.pose.translation().x(), object.pose.translation().y(),
                                         core::yawOf(object.pose)};
   }

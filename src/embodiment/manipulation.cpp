@@ -1,5 +1,6 @@
 #include "xpersif/embodiment/manipulation.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "xpersif/embodiment/relocation.h"  // describePose
@@ -27,7 +28,8 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   declared.preconditions = {
       {"known(?object)", "the object must be one of the set-up's objects"},
       {"valid_push(?side, ?offset, ?distance)",
-       "the side must be -x, +x, -y or +y, the offset within the face, the distance positive and at most 0.15 m"},
+       "the side must be -x, +x, -y or +y, the offset within the object's push limit (half the face's width for a "
+       "box, half the radius for a cylinder or sphere), the distance positive and at most ~max_push_distance"},
       {"localized(robot)", "the robot's pose must be known from the requested pose source"},
       {"observed(scene)", "the overhead camera must have seen the object recently"},
       {"pushable(?object, ?side)", "the approach spot must be free and the object must not end in a wall"},
@@ -54,13 +56,14 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                if (why.empty()) why = core::checkFinite("goal.distance", g.distance);
                if (!why.empty()) return why;
                std::lock_guard<std::mutex> lock(mutex_);
-               const double half = 0.5 * setup_.object_sizes.at(g.object);
-               if (std::abs(g.offset) > half) {
-                 return "goal.offset is " + core::describeNumber(g.offset) + " m; it must lie within the face, |offset| <= " +
-                        core::describeNumber(half) + " m";
+               const double limit = core::maxPushOffset(setup_.object_footprints.at(g.object), g.side);
+               if (std::abs(g.offset) > limit) {
+                 return "goal.offset is " + core::describeNumber(g.offset) + " m; on " + g.side + " of " + g.object +
+                        " it must satisfy |offset| <= " + core::describeNumber(limit) + " m";
                }
-               if (!(g.distance > 0) || g.distance > 0.15) {
-                 return "goal.distance is " + core::describeNumber(g.distance) + " m; it must be in (0, 0.15] m";
+               if (!(g.distance > 0) || g.distance > max_push_distance_) {
+                 return "goal.distance is " + core::describeNumber(g.distance) + " m; it must be in (0, " +
+                        core::describeNumber(max_push_distance_) + "] m";
                }
                return std::string();
              })
@@ -71,7 +74,7 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
              })
       .check("observed(scene)",
              [this](const PushGoal& g) {
-               core::BoxObstacle object;
+               core::Obstacle object;
                return observedObject(g.object, observation_max_age_, &object);
              })
       .check("pushable(?object, ?side)",
@@ -98,6 +101,9 @@ void Manipulation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   double rate = 50, max_linear = 0.1, max_angular = 2.5, margin = 0.01, max_age = 2.0, settle = 0.3;
+  // The longest push that stays well inside the arena: pushed from the centre, an object ends halfway to the
+  // nearest wall (the planner still checks every push against the walls).
+  double max_push_distance = 0.25 * std::min(setup.arena.size_x, setup.arena.size_y);
   bool has_gripper = false;
   std::string observation_topic = "observation/features";
   pnh.param("control_rate", rate, rate);
@@ -106,6 +112,7 @@ void Manipulation::onConfigure() {
   pnh.param("margin", margin, margin);
   pnh.param("observation_max_age", max_age, max_age);
   pnh.param("settle_time", settle, settle);
+  pnh.param("max_push_distance", max_push_distance, max_push_distance);
   pnh.param("observation_topic", observation_topic, observation_topic);
   pnh.param("has_gripper", has_gripper, has_gripper);
   if (has_gripper) throw std::runtime_error("~has_gripper is true, but this robot model has no gripper to drive");
@@ -115,6 +122,7 @@ void Manipulation::onConfigure() {
   core::requireInRange("~margin", margin, 0.0, 0.1);
   core::requirePositive("~observation_max_age", max_age);
   core::requireInRange("~settle_time", settle, 0.0, 10.0);
+  core::requirePositive("~max_push_distance", max_push_distance);
 
   std::lock_guard<std::mutex> lock(mutex_);
   setup_ = setup;
@@ -126,6 +134,7 @@ void Manipulation::onConfigure() {
   margin_ = margin;
   observation_max_age_ = max_age;
   settle_time_ = settle;
+  max_push_distance_ = max_push_distance;
   if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
   pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
 }
@@ -145,14 +154,14 @@ void Manipulation::publishVelocity(const core::Velocity2D& velocity) {
   if (cmd_vel_pub_) cmd_vel_pub_.publish(twist);
 }
 
-std::string Manipulation::observedObject(const std::string& name, double max_age, core::BoxObstacle* object) const {
+std::string Manipulation::observedObject(const std::string& name, double max_age, core::Obstacle* object) const {
   if (!pose_source_) return "not configured";
-  std::map<std::string, double> sizes;
+  std::map<std::string, core::Footprint> footprints;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    sizes = setup_.object_sizes;
+    footprints = setup_.object_footprints;
   }
-  for (const auto& o : pose_source_->obstacles(sizes, max_age)) {
+  for (const auto& o : pose_source_->obstacles(footprints, max_age)) {
     if (o.name == name) {
       *object = o;
       return "";
@@ -163,15 +172,15 @@ std::string Manipulation::observedObject(const std::string& name, double max_age
 }
 
 std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, core::PathResult* path) const {
-  core::BoxObstacle object;
+  core::Obstacle object;
   std::string why = observedObject(goal.object, observation_max_age_, &object);
   if (!why.empty()) return why;
   core::Pose2D start;
   why = pose_source_->pose(goal.pose_source, &start);
   if (!why.empty()) return why;
   std::lock_guard<std::mutex> lock(mutex_);
-  std::vector<core::BoxObstacle> others;
-  for (const auto& o : pose_source_->obstacles(setup_.object_sizes, observation_max_age_)) {
+  std::vector<core::Obstacle> others;
+  for (const auto& o : pose_source_->obstacles(setup_.object_footprints, observation_max_age_)) {
     if (o.name != goal.object) others.push_back(o);
   }
   core::PushRequest request;
@@ -181,6 +190,7 @@ std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, co
   request.distance = goal.distance;
   core::PushOptions options;
   options.margin = margin_;
+  options.max_distance = max_push_distance_;
   *plan = core::planPush(object, request, setup_.robot_radius, setup_.arena, others, options);
   if (!plan->ok) return plan->reason;
   // The approach path keeps clear of every object, the pushed one included.
@@ -198,7 +208,7 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   core::PathResult path;
   std::string why = planFor(goal, &plan, &path);
   if (!why.empty()) return CommandOutcome::aborted(result.message = why);
-  core::BoxObstacle before;
+  core::Obstacle before;
   observedObject(goal.object, observation_max_age_, &before);
   result.object_before = toMsg(before.x, before.y, before.yaw);
   const ros::Time started = ros::Time::now();

@@ -192,7 +192,7 @@ std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path)
   if (!why.empty()) return why;
   std::lock_guard<std::mutex> lock(mutex_);
   core::PathPlanner planner(setup_.arena, setup_.robot_radius, margin_);
-  if (!goal.straight) planner.setObstacles(pose_source_->obstacles(setup_.object_sizes, obstacle_max_age_));
+  if (!goal.straight) planner.setObstacles(pose_source_->obstacles(setup_.object_footprints, obstacle_max_age_));
   *path = planner.plan(start, toPose(goal.target));
   return path->ok ? "" : path->reason;
 }

@@ -86,15 +86,15 @@ std::optional<FeatureVector> RobotPoseSource::observation(double max_age) const 
   return *observation_;
 }
 
-std::vector<core::BoxObstacle> RobotPoseSource::obstacles(const std::map<std::string, double>& sizes,
-                                                          double max_age) const {
-  std::vector<core::BoxObstacle> result;
+std::vector<core::Obstacle> RobotPoseSource::obstacles(const std::map<std::string, core::Footprint>& footprints,
+                                                       double max_age) const {
+  std::vector<core::Obstacle> result;
   const auto seen = observation(max_age);
   if (!seen) return result;
   for (const auto& object : seen->objects) {
-    const auto size = sizes.find(object.name);
-    if (size == sizes.end()) continue;
-    result.push_back({object.name, object.position.x, object.position.y, object.yaw, size->second});
+    const auto footprint = footprints.find(object.name);
+    if (footprint == footprints.end()) continue;
+    result.push_back({object.name, object.position.x, object.position.y, object.yaw, footprint->second});
   }
   return result;
 }

@@ -36,14 +36,17 @@ Pose2D odometry(const PhysicsWorld& world) {
 
 ArenaGeometry arenaOf(const PhysicsWorld& world) { return {world.spec().arena.size_x, world.spec().arena.size_y}; }
 
-std::vector<BoxObstacle> cubesOf(const PhysicsWorld& world) {
-  std::vector<BoxObstacle> boxes;
+std::vector<Obstacle> cubesOf(const PhysicsWorld& world) {
+  std::vector<Obstacle> objects;
   for (const auto& o : world.spec().objects) {
     const Pose2D p = truth(world, o.name);
-    boxes.push_back({o.name, p.x, p.y, p.yaw, o.shape.box_size.x()});
+    objects.push_back({o.name, p.x, p.y, p.yaw, Footprint::ofShape(o.shape)});
   }
-  return boxes;
+  return objects;
 }
+
+/// A square footprint of edge @p edge (the default world's cubes have 0.04 m).
+Footprint square(double edge) { return Footprint::rectangle(edge, edge); }
 
 /// One control period: @p command to the robot, then 20 ms of physics.
 void applyAndStep(PhysicsWorld& world, const Velocity2D& command) {
@@ -210,7 +213,7 @@ TEST(Controllers, RejectBadGoalsAndSettingsWithASentence) {
 // (c) Path planning around the cubes, on the default world.
 TEST(PathPlanning, ReachesGoalsBehindCubesWithoutTouchingThem) {
   PhysicsWorld world(defaultWorld());
-  const std::vector<BoxObstacle> cubes = cubesOf(world);
+  const std::vector<Obstacle> cubes = cubesOf(world);
   PathPlanner planner(arenaOf(world), kRobotRadius, 0.01);
   planner.setObstacles(cubes);
   PathFollower follower;
@@ -253,7 +256,7 @@ TEST(PathPlanning, ReachesGoalsBehindCubesWithoutTouchingThem) {
 
 TEST(PathPlanning, UnreachableGoalsGetReasons) {
   PathPlanner planner(ArenaGeometry{0.9, 0.6}, kRobotRadius, 0.01);
-  planner.setObstacles({{"blue_cube", 0.25, 0.0, 0.0, 0.04}, {"red_cube", 0.05, 0.15, 0.3, 0.04}});
+  planner.setObstacles({{"blue_cube", 0.25, 0.0, 0.0, square(0.04)}, {"red_cube", 0.05, 0.15, 0.3, square(0.04)}});
   const Pose2D start{-0.3, 0.0, 0.0};
   auto reason = [&](const Pose2D& goal) {
     const PathResult r = planner.plan(start, goal);
@@ -270,14 +273,15 @@ TEST(PathPlanning, UnreachableGoalsGetReasons) {
       << planner.plan({0.25, 0.01, 0.0}, {0, 0, 0}).reason;
   // A goal walled in by four boxes: free itself, but no way in.
   PathPlanner walled(ArenaGeometry{0.9, 0.6}, kRobotRadius, 0.01);
-  walled.setObstacles({{"a", 0.2, 0.12, 0, 0.1}, {"b", 0.2, -0.12, 0, 0.1}, {"c", 0.32, 0, 0, 0.1},
-                       {"d", 0.08, 0, 0, 0.1}, {"e", 0.08, 0.1, 0, 0.1}, {"f", 0.08, -0.1, 0, 0.1},
-                       {"g", 0.32, 0.1, 0, 0.1}, {"h", 0.32, -0.1, 0, 0.1}});
+  walled.setObstacles({{"a", 0.2, 0.12, 0, square(0.1)}, {"b", 0.2, -0.12, 0, square(0.1)},
+                       {"c", 0.32, 0, 0, square(0.1)}, {"d", 0.08, 0, 0, square(0.1)},
+                       {"e", 0.08, 0.1, 0, square(0.1)}, {"f", 0.08, -0.1, 0, square(0.1)},
+                       {"g", 0.32, 0.1, 0, square(0.1)}, {"h", 0.32, -0.1, 0, square(0.1)}});
   ASSERT_EQ(walled.checkFree(0.2, 0.0), "");
   const PathResult enclosed = walled.plan(start, {0.2, 0.0, 0.0});
   EXPECT_FALSE(enclosed.ok);
   EXPECT_NE(enclosed.reason.find("no path from"), std::string::npos) << enclosed.reason;
-  EXPECT_THROW(planner.setObstacles({{"x", 0, 0, 0, -1}}), ValidationError);
+  EXPECT_THROW(planner.setObstacles({{"x", 0, 0, 0, square(-1)}}), ValidationError);
 
   EXPECT_EQ(checkTargetInArena({0.9, 0.6}, 0.41, 0.26, kRobotRadius), "");
   EXPECT_NE(checkTargetInArena({0.9, 0.6}, 0.42, 0.0, kRobotRadius), "");
@@ -287,7 +291,7 @@ TEST(PathPlanning, UnreachableGoalsGetReasons) {
 TEST(PathPlanning, LeavesTheMarginFromAStartNextToACube) {
   // Right after a push the robot may be closer than the margin to a cube: it can still get away.
   PathPlanner planner(ArenaGeometry{0.9, 0.6}, kRobotRadius, 0.01);
-  planner.setObstacles({{"red_cube", 0.0, 0.0, 0.0, 0.04}});
+  planner.setObstacles({{"red_cube", 0.0, 0.0, 0.0, square(0.04)}});
   const PathResult r = planner.plan({-0.056, 0.0, 0.0}, {-0.3, 0.1, 0.0});
   ASSERT_TRUE(r.ok) << r.reason;
   EXPECT_NEAR(r.waypoints.back().x, -0.3, 1e-12);
@@ -307,8 +311,8 @@ struct PushOutcome {
 
 PushOutcome runPush(PhysicsWorld& world, const PushRequest& request, double limit = 60.0) {
   PushOutcome out;
-  const std::vector<BoxObstacle> cubes = cubesOf(world);
-  BoxObstacle object;
+  const std::vector<Obstacle> cubes = cubesOf(world);
+  Obstacle object;
   for (const auto& c : cubes) {
     if (c.name == request.object) object = c;
     else out.others_before[c.name] = truth(world, c.name);
@@ -413,10 +417,10 @@ TEST(Push, TheSlipperyYellowCubeCanBePushed) {
 
 TEST(Push, BadRequestsAreRejectedWithReasons) {
   const ArenaGeometry arena{0.9, 0.6};
-  const BoxObstacle red{"red_cube", 0.05, 0.15, 0.0, 0.04}, green{"green_cube", 0.05, -0.15, 0.0, 0.04};
-  const BoxObstacle yellow{"yellow_cube", 0.3, 0.18, 0.4, 0.04}, blue{"blue_cube", 0.25, 0.0, 0.0, 0.04};
-  const std::vector<BoxObstacle> all{red, green, yellow, blue};
-  auto reason = [&](const BoxObstacle& object, const PushRequest& r, const std::vector<BoxObstacle>& others) {
+  const Obstacle red{"red_cube", 0.05, 0.15, 0.0, square(0.04)}, green{"green_cube", 0.05, -0.15, 0.0, square(0.04)};
+  const Obstacle yellow{"yellow_cube", 0.3, 0.18, 0.4, square(0.04)}, blue{"blue_cube", 0.25, 0.0, 0.0, square(0.04)};
+  const std::vector<Obstacle> all{red, green, yellow, blue};
+  auto reason = [&](const Obstacle& object, const PushRequest& r, const std::vector<Obstacle>& others) {
     const PushPlan p = planPush(object, r, kRobotRadius, arena, others);
     EXPECT_FALSE(p.ok) << r.side << " " << r.offset << " " << r.distance;
     return p.reason;
@@ -429,7 +433,7 @@ TEST(Push, BadRequestsAreRejectedWithReasons) {
   EXPECT_NE(reason(red, {"red_cube", "-y", 0, 0.15}, all).find("into the wall"), std::string::npos);
   EXPECT_NE(reason(yellow, {"yellow_cube", "+y", 0, 0.05}, all).find("approach spot"), std::string::npos);
   // Red pushed towards green from 8 cm away: would shove it into green.
-  const BoxObstacle near_green{"red_cube", 0.05, -0.07, 0.0, 0.04};
+  const Obstacle near_green{"red_cube", 0.05, -0.07, 0.0, square(0.04)};
   EXPECT_NE(reason(near_green, {"red_cube", "+y", 0, 0.08}, {near_green, green}).find("into green_cube"),
             std::string::npos);
   // A good request gives consistent poses.
@@ -459,7 +463,7 @@ TEST(Controllers, FailWithAReasonWhenTheRobotMakesNoProgress) {
   EXPECT_NE(fb.reason.find("no progress for 2 s in phase drive"), std::string::npos) << fb.reason;
   EXPECT_EQ(fb.command.linear, 0.0);
 
-  PushPlan plan = planPush({"red_cube", 0.0, 0.0, 0.0, 0.04}, {"red_cube", "-x", 0.0, 0.05}, kRobotRadius,
+  PushPlan plan = planPush({"red_cube", 0.0, 0.0, 0.0, square(0.04)}, {"red_cube", "-x", 0.0, 0.05}, kRobotRadius,
                            {0.9, 0.6}, {});
   ASSERT_TRUE(plan.ok) << plan.reason;
   PushControlOptions push_options;
@@ -484,7 +488,7 @@ TEST(Controllers, FailWithAReasonWhenTheRobotMakesNoProgress) {
 
 TEST(Push, AnObjectThatResistsEndsThePushBlockedAndTheRobotBacksOff) {
   // A kinematic robot that moves as commanded until it reaches the face plus 1 cm: there the object stops it.
-  PushPlan plan = planPush({"blue_cube", 0.0, 0.0, 0.0, 0.04}, {"blue_cube", "-x", 0.0, 0.08}, kRobotRadius,
+  PushPlan plan = planPush({"blue_cube", 0.0, 0.0, 0.0, square(0.04)}, {"blue_cube", "-x", 0.0, 0.08}, kRobotRadius,
                            {0.9, 0.6}, {});
   ASSERT_TRUE(plan.ok) << plan.reason;
   PushControlOptions options;
@@ -503,4 +507,135 @@ TEST(Push, AnObjectThatResistsEndsThePushBlockedAndTheRobotBacksOff) {
   ASSERT_TRUE(fb.done) << fb.reason;
   EXPECT_TRUE(fb.blocked);
   EXPECT_LT(pose.x, wall_x - 0.03) << "the robot did not back off";
+}
+
+// (e) Footprints other than the cubes' square: long rectangles and discs.
+TEST(Footprints, DistanceToARotatedRectangleAndADisc) {
+  // 0.2 x 0.04 m turned by 90 deg: it covers x in [0.08, 0.12], y in [-0.1, 0.1].
+  const Obstacle bar{"bar", 0.1, 0.0, kPi / 2, Footprint::rectangle(0.2, 0.04)};
+  EXPECT_NEAR(distanceToObstacle(bar, 0.1, 0.15), 0.05, 1e-12);
+  EXPECT_NEAR(distanceToObstacle(bar, 0.15, 0.0), 0.03, 1e-12);
+  EXPECT_NEAR(distanceToObstacle(bar, 0.1, 0.0), -0.02, 1e-12);
+  EXPECT_NEAR(distanceToObstacle(bar, 0.15, 0.14), 0.05, 1e-12) << "to the corner (0.12, 0.1)";
+  const Obstacle puck{"puck", -0.1, 0.05, 1.0, Footprint::disc(0.03)};
+  EXPECT_NEAR(distanceToObstacle(puck, -0.1, 0.1), 0.02, 1e-12);
+  EXPECT_NEAR(distanceToObstacle(puck, -0.1, 0.05), -0.03, 1e-12);
+}
+
+TEST(Footprints, ThePathPlannerRoutesAroundADisc) {
+  PathPlanner planner(ArenaGeometry{0.9, 0.6}, kRobotRadius, 0.01);
+  const Obstacle puck{"puck", 0.0, 0.0, 0.0, Footprint::disc(0.08)};
+  planner.setObstacles({puck});
+  const Pose2D start{-0.3, 0.0, 0.0}, goal{0.3, 0.0, 0.0};
+  const PathResult r = planner.plan(start, goal);
+  ASSERT_TRUE(r.ok) << r.reason;
+  EXPECT_GE(r.waypoints.size(), 2u) << "the straight line goes through the disc";
+  double closest = 1.0;
+  Pose2D from = start;
+  for (const Pose2D& to : r.waypoints) {
+    for (int s = 0; s <= 100; ++s) {
+      const double t = s / 100.0;
+      closest = std::min(closest, distanceToObstacle(puck, from.x + t * (to.x - from.x), from.y + t * (to.y - from.y)));
+    }
+    from = to;
+  }
+  EXPECT_GE(closest, kRobotRadius + 0.01 - 1e-6) << "the path keeps the radius and the margin from the disc";
+  EXPECT_NE(planner.plan(start, {0.0, 0.1, 0.0}).reason.find("too close to puck"), std::string::npos);
+  EXPECT_THROW(planner.setObstacles({{"bad", 0, 0, 0, Footprint::disc(-0.01)}}), ValidationError);
+}
+
+TEST(Footprints, PushPlansForALongRectangleOnEachSide) {
+  const ArenaGeometry arena{0.9, 0.6};
+  const Obstacle bar{"bar", 0.0, 0.0, 0.0, Footprint::rectangle(0.12, 0.04)};
+  const double r = kRobotRadius;
+  struct Case {
+    std::string side;
+    double direction, contact_x, contact_y;  // for offset 0.01
+    double max_offset;
+  };
+  // Contact 1 cm left of the push direction; the robot's centre touches the face straight ahead.
+  for (const Case& c : {Case{"-x", 0.0, -0.06 - r, 0.01, 0.02}, Case{"+x", kPi, 0.06 + r, -0.01, 0.02},
+                        Case{"-y", kPi / 2, -0.01, -0.02 - r, 0.06}, Case{"+y", -kPi / 2, 0.01, 0.02 + r, 0.06}}) {
+    EXPECT_NEAR(maxPushOffset(bar.footprint, c.side), c.max_offset, 1e-12) << c.side;
+    const PushPlan p = planPush(bar, {"bar", c.side, 0.01, 0.05}, r, arena, {});
+    ASSERT_TRUE(p.ok) << c.side << ": " << p.reason;
+    EXPECT_NEAR(normalizeAngle(p.direction - c.direction), 0.0, 1e-12) << c.side;
+    EXPECT_NEAR(p.contact.x, c.contact_x, 1e-12) << c.side;
+    EXPECT_NEAR(p.contact.y, c.contact_y, 1e-12) << c.side;
+    EXPECT_NEAR(p.push_end.x - p.contact.x, 0.05 * std::cos(c.direction), 1e-12) << c.side;
+    EXPECT_NEAR(p.push_end.y - p.contact.y, 0.05 * std::sin(c.direction), 1e-12) << c.side;
+  }
+  // 3 cm off the centre is on the long faces, beyond the ends of the short ones.
+  EXPECT_TRUE(planPush(bar, {"bar", "-y", 0.03, 0.05}, r, arena, {}).ok);
+  const PushPlan off = planPush(bar, {"bar", "-x", 0.03, 0.05}, r, arena, {});
+  EXPECT_FALSE(off.ok);
+  EXPECT_NE(off.reason.find("offset is 0.03; it must lie in [-0.02, 0.02]"), std::string::npos) << off.reason;
+  EXPECT_NE(off.reason.find("0.12 x 0.04 m rectangle"), std::string::npos) << off.reason;
+
+  // Turned by 90 deg next to the +y wall, the bar reaches 0.1 m along y: the wall check uses that extent.
+  const Obstacle standing{"bar", 0.0, 0.1, kPi / 2, Footprint::rectangle(0.2, 0.04)};
+  EXPECT_TRUE(planPush(standing, {"bar", "-x", 0.0, 0.08}, r, arena, {}).ok);
+  EXPECT_NE(planPush(standing, {"bar", "-x", 0.0, 0.1}, r, arena, {}).reason.find("into the wall"), std::string::npos);
+}
+
+TEST(Footprints, PushPlanForADiscPutsTheContactAtTheOffset) {
+  const ArenaGeometry arena{0.9, 0.6};
+  const double R = 0.03, r = kRobotRadius, offset = 0.01;
+  const Obstacle puck{"puck", 0.1, -0.05, 0.0, Footprint::disc(R)};
+  EXPECT_NEAR(maxPushOffset(puck.footprint, "-y"), R / 2, 1e-12);
+  const PushPlan p = planPush(puck, {"puck", "-x", offset, 0.06}, r, arena, {});
+  ASSERT_TRUE(p.ok) << p.reason;
+  EXPECT_NEAR(p.direction, 0.0, 1e-12);
+  // The discs touch: the contact point lies on the centre line, R from the puck's centre.
+  const double cx = p.contact.x - puck.x, cy = p.contact.y - puck.y;
+  EXPECT_NEAR(std::hypot(cx, cy), R + r, 1e-12);
+  EXPECT_NEAR(R * cy / (R + r), offset, 1e-12) << "the contact point is `offset` left of the push line";
+  EXPECT_LT(cx, 0.0) << "behind the puck";
+  // Approach, contact, push end and retreat all lie on the displaced line, facing the push direction.
+  for (const Pose2D& q : {p.approach, p.contact, p.push_end, p.retreat}) {
+    EXPECT_NEAR(q.y, puck.y + offset * (R + r) / R, 1e-12);
+    EXPECT_NEAR(q.yaw, 0.0, 1e-12);
+  }
+  EXPECT_NEAR(p.contact.x - p.approach.x, PushOptions{}.standoff, 1e-12);
+  EXPECT_NEAR(p.push_end.x - p.contact.x, 0.06, 1e-12);
+  // Beyond half the radius the robot would glance off the side.
+  const PushPlan glancing = planPush(puck, {"puck", "-x", 0.016, 0.06}, r, arena, {});
+  EXPECT_FALSE(glancing.ok);
+  EXPECT_NE(glancing.reason.find("offset is 0.016; it must lie in [-0.015, 0.015]"), std::string::npos)
+      << glancing.reason;
+  EXPECT_NE(glancing.reason.find("a disc of radius 0.03 m"), std::string::npos) << glancing.reason;
+  EXPECT_NE(glancing.reason.find("half its radius"), std::string::npos) << glancing.reason;
+}
+
+TEST(Footprints, PushControllerPushesADiscToThePushEnd) {
+  // Kinematic: the robot moves as commanded; where it overlaps the puck, the puck is moved out along the
+  // centre line (a light puck that slides without friction of its own).
+  const double R = 0.025;
+  Obstacle puck{"puck", 0.0, 0.0, 0.0, Footprint::disc(R)};
+  const PushPlan plan = planPush(puck, {"puck", "+y", 0.0, 0.08}, kRobotRadius, {0.9, 0.6}, {});
+  ASSERT_TRUE(plan.ok) << plan.reason;
+  PushController push;
+  push.start(plan, {{-0.2, 0.2, 0.0}});
+  Pose2D pose{-0.2, 0.25, 0.0};
+  const double dx = std::cos(plan.direction), dy = std::sin(plan.direction);
+  double furthest = -1.0;  // along the push line past the contact pose
+  PushFeedback fb;
+  for (double t = 0; t < 60.0 && !fb.done && !fb.failed; t += kControlPeriod) {
+    fb = push.update(pose, kControlPeriod);
+    pose.yaw += fb.command.angular * kControlPeriod;
+    pose.x += std::cos(pose.yaw) * fb.command.linear * kControlPeriod;
+    pose.y += std::sin(pose.yaw) * fb.command.linear * kControlPeriod;
+    const double gap = std::hypot(puck.x - pose.x, puck.y - pose.y), touch = R + kRobotRadius;
+    if (gap < touch) {
+      puck.x = pose.x + (puck.x - pose.x) * touch / gap;
+      puck.y = pose.y + (puck.y - pose.y) * touch / gap;
+    }
+    furthest = std::max(furthest, (pose.x - plan.contact.x) * dx + (pose.y - plan.contact.y) * dy);
+  }
+  ASSERT_TRUE(fb.done) << fb.reason;
+  EXPECT_FALSE(fb.blocked);
+  EXPECT_NEAR(furthest, plan.distance, 0.003) << "the robot drove to the push end";
+  EXPECT_NEAR(puck.x, plan.object_end.x, 0.005);
+  EXPECT_NEAR(puck.y, plan.object_end.y, 0.005);
+  EXPECT_LT(distance(pose, plan.retreat), 0.005);
 }

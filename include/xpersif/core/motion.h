@@ -2,7 +2,8 @@
  * @file motion.h
  * @brief The motion core behind RELOCATION and MANIPULATION, ROS-free and physics-free: controllers
  *        that turn a measured planar pose into a velocity command, a grid path planner around the arena's
- *        walls and the cubes, and a push planner + controller for pushing a cube on one of its faces.
+ *        walls and the objects, and a push planner + controller for pushing an object (a box on one of its
+ *        faces, or a cylinder or sphere along a side's axis).
  *
  * Everything works on a planar pose (x, y, yaw in the world frame, metres and radians), whatever measured
  * it (wheel odometry, the overhead camera). A caller runs a controller at a fixed control period:
@@ -13,9 +14,9 @@
  * plans that cannot be made (unreachable goal, a push into a wall) are results with a reason sentence,
  * because they are ordinary outcomes that become rejected goals.
  *
- * Conventions: the robot is a disc of radius `robot_radius` that drives along its +x axis (yaw); a
- * BoxObstacle is a square footprint of edge `size` centred at (x, y) and rotated by yaw; the arena is
- * size_x by size_y (inner extents) centred on the world origin.
+ * Conventions: the robot is a disc of radius `robot_radius` that drives along its +x axis (yaw); an
+ * Obstacle is an object's footprint (footprint.h: a rectangle or a disc) centred at (x, y) and rotated by
+ * yaw; the arena is size_x by size_y (inner extents) centred on the world origin.
  */
 #pragma once
 
@@ -23,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "xpersif/core/footprint.h"
 #include "xpersif/core/pose2d.h"
 
 namespace xpersif::core {
@@ -57,15 +59,15 @@ struct ArenaGeometry {
   std::string check() const;
 };
 
-/// A square obstacle (a cube's footprint) the planners keep the robot away from.
-struct BoxObstacle {
+/// An object on the floor (its footprint, placed and turned) that the planners keep the robot away from.
+struct Obstacle {
   std::string name;
   double x = 0, y = 0, yaw = 0;  ///< centre and rotation in the world frame
-  double size = 0.04;            ///< full edge length of the square, m
+  Footprint footprint;           ///< in the object's frame
 };
 
-/// Signed distance from (x, y) to the box's footprint (negative inside).
-double distanceToBox(const BoxObstacle& box, double x, double y);
+/// Signed distance from the world point (x, y) to the obstacle's footprint (negative inside), m.
+double distanceToObstacle(const Obstacle& obstacle, double x, double y);
 
 /**
  * @brief "" when a disc of @p robot_radius centred at (x, y) lies inside the arena with at least
@@ -219,7 +221,7 @@ struct PathResult {
 
 /**
  * @brief Grid A* over the arena (8-connected, @p resolution cells) for a disc robot kept @p margin away
- *        from walls and box obstacles, simplified to few waypoints by line of sight. A start that is
+ *        from walls and obstacles, simplified to few waypoints by line of sight. A start that is
  *        closer than the margin (but not overlapping anything) may leave its corner: the robot is allowed
  *        to move out of the margin, at a higher cost.
  */
@@ -228,9 +230,9 @@ class PathPlanner {
   /// @throws ValidationError for a bad arena, radius, margin or resolution
   PathPlanner(ArenaGeometry arena, double robot_radius, double margin = 0.01, double resolution = 0.01);
 
-  /// @throws ValidationError for non-finite or non-positive-size obstacles
-  void setObstacles(std::vector<BoxObstacle> obstacles);
-  const std::vector<BoxObstacle>& obstacles() const { return obstacles_; }
+  /// @throws ValidationError for a non-finite pose or a bad footprint (Footprint::check)
+  void setObstacles(std::vector<Obstacle> obstacles);
+  const std::vector<Obstacle>& obstacles() const { return obstacles_; }
 
   /// Never throws for geometric reasons: non-finite poses, goals outside the arena, inside or too close to
   /// an obstacle, a blocked start and unreachable goals all come back as !ok with a reason sentence.
@@ -250,7 +252,7 @@ class PathPlanner {
 
   ArenaGeometry arena_;
   double robot_radius_, margin_, resolution_;
-  std::vector<BoxObstacle> obstacles_;
+  std::vector<Obstacle> obstacles_;
 };
 
 // ---- pushing ------------------------------------------------------------------------------------------
@@ -258,10 +260,11 @@ class PathPlanner {
 struct PushRequest {
   std::string object;   ///< name of the object to push
   std::string side;     ///< face pushed, in the object's frame: "-x", "+x", "-y" or "+y"; the push goes
-                        ///< along that face's inward normal ("-x": along the object's +x axis)
-  double offset = 0;    ///< contact point's lateral offset from the face centre, m, positive to the LEFT
-                        ///< of the push direction; |offset| <= size / 2
-  double distance = 0.05;  ///< m pushed after contact, in (0, 0.15]
+                        ///< along that face's inward normal ("-x": along the object's +x axis); for a disc
+                        ///< the side only names that direction
+  double offset = 0;    ///< contact point's lateral offset from the push line through the object's centre,
+                        ///< m, positive to the LEFT of the push direction; |offset| <= maxPushOffset
+  double distance = 0.05;  ///< m pushed after contact, in (0, PushOptions::max_distance]
 };
 
 struct PushOptions {
@@ -269,7 +272,7 @@ struct PushOptions {
   double retreat = 0.04;      ///< how far the robot backs off after the push, m
   double margin = 0.01;       ///< kept between the robot and walls/other obstacles (as the path planner)
   double object_clearance = 0.005;  ///< kept between the pushed object and walls/other obstacles at the end
-  double max_distance = 0.15;       ///< largest accepted push distance, m
+  double max_distance = 0.15;       ///< largest accepted push distance, m (callers derive it from the arena)
 
   std::string check() const;
 };
@@ -283,7 +286,7 @@ struct PushPlan {
   double offset = 0, distance = 0;
   double direction = 0;  ///< yaw of the push direction (world frame)
   Pose2D approach;       ///< standoff before the face, facing the push direction
-  Pose2D contact;        ///< the robot's front touches the face
+  Pose2D contact;        ///< the robot's front touches the face (a disc: its rim at the contact point)
   Pose2D push_end;       ///< after pushing `distance`
   Pose2D retreat;        ///< backed off after the push
   Pose2D object_end;     ///< where the object's centre ends if it slides straight along (yaw unchanged)
@@ -292,15 +295,16 @@ struct PushPlan {
 /// "" when @p side is one of "-x", "+x", "-y", "+y".
 std::string checkPushSide(const std::string& side);
 
+
 /**
- * @brief Plan a push of @p object. Never throws for bad requests: an unknown side, a non-finite,
- *        non-positive or too long distance, |offset| beyond the half size, an approach or retreat spot
+ * @brief Plan a push of @p object. Never throws for bad requests: an unknown side, a bad footprint, a
+ *        non-finite, non-positive or too long distance, |offset| beyond maxPushOffset (footprint.h), an approach or retreat spot
  *        outside the arena or too close to another obstacle, the robot's or the object's path hitting
  *        another obstacle, or the object being pushed into a wall give !ok with a reason sentence.
  * @param others obstacles other than @p object (an entry with object's name is ignored)
  */
-PushPlan planPush(const BoxObstacle& object, const PushRequest& request, double robot_radius,
-                  const ArenaGeometry& arena, const std::vector<BoxObstacle>& others,
+PushPlan planPush(const Obstacle& object, const PushRequest& request, double robot_radius,
+                  const ArenaGeometry& arena, const std::vector<Obstacle>& others,
                   const PushOptions& options = {});
 
 enum class PushPhase { Idle, Approach, Contact, Push, Retreat, Done, Stopped, Failed };
@@ -332,7 +336,7 @@ struct PushControlOptions {
 
 /**
  * @brief Executes a PushPlan: APPROACH (follow @p approach_path to plan.approach with PathFollower),
- *        CONTACT (straight, slowly, until the robot's front reaches the face), PUSH (straight on for the
+ *        CONTACT (straight, slowly, until the robot reaches plan.contact, where it touches the object), PUSH (straight on for the
  *        push distance, holding the push line), RETREAT (backwards to plan.retreat), DONE.
  */
 class PushController {
@@ -341,7 +345,7 @@ class PushController {
   explicit PushController(MotionLimits limits = {}, PushControlOptions options = {});
 
   /// @p approach_path: waypoints from the current pose to plan.approach, typically PathPlanner::plan(current,
-  /// plan.approach).waypoints with every cube (the pushed one included) as an obstacle; empty means "drive
+  /// plan.approach).waypoints with every object (the pushed one included) as an obstacle; empty means "drive
   /// straight to plan.approach". The last waypoint is replaced by plan.approach (facing the push direction)
   /// and reached with GoToPoseOptions' defaults (5 mm, 1.5 deg). @throws ValidationError if !plan.ok or a
   /// pose is not finite

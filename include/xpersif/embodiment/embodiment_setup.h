@@ -1,7 +1,7 @@
 /**
  * @file embodiment_setup.h
  * @brief What the embodiment's components know about the experimental set-up: the arena, the robot's
- *        footprint and speed limits, the objects and their sizes. Read from the same world file XPERSim
+ *        footprint and speed limits, the objects and their footprints. Read from the same world file XPERSim
  *        runs (the `world` parameter of the component's namespace), so that nothing is configured twice;
  *        a physical set-up would give the same facts in a world file of its own.
  */
@@ -23,7 +23,7 @@ struct EmbodimentSetup {
   double robot_radius = 0.035;
   double max_wheel_speed = 0.5;  ///< m/s at the rim
   double wheel_separation = 0.053;
-  std::map<std::string, double> object_sizes;  ///< name -> edge length of its (cubic) footprint, m
+  std::map<std::string, core::Footprint> object_footprints;  ///< name -> its footprint on the floor
   std::map<std::string, core::Pose2D> initial_poses;  ///< where the world file puts the objects and the robot
   std::string robot_name;                             ///< the robot's body name (XPERSim's set_pose)
   std::vector<std::string> objectNames() const;

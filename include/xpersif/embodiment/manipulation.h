@@ -9,7 +9,8 @@
  * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
  * `~margin` (m, 0.01), `~observation_topic` (observation/features), `~observation_max_age` (s, 2: how old
  * the object's last sighting may be), `~settle_time` (s, 0.3: wait after the retreat before the final
- * observation), and the `world` file (embodiment_setup.h).
+ * observation), `~max_push_distance` (m, a quarter of the arena's smaller inner extent: the longest push
+ * accepted), and the `world` file (embodiment_setup.h).
  */
 #pragma once
 
@@ -40,7 +41,7 @@ class Manipulation : public Component {
   /// Plan the push from the current state: "" and the plan (and the approach path), or why it cannot be done.
   std::string planFor(const PushGoal& goal, core::PushPlan* plan, core::PathResult* path) const;
   /// The object as last observed: "" or why it is not known.
-  std::string observedObject(const std::string& name, double max_age, core::BoxObstacle* object) const;
+  std::string observedObject(const std::string& name, double max_age, core::Obstacle* object) const;
   CommandOutcome push(Push::Context& context, PushResult& result);
   void publishVelocity(const core::Velocity2D& velocity);
 
@@ -51,6 +52,7 @@ class Manipulation : public Component {
   double margin_ = 0.01;
   double observation_max_age_ = 2.0;
   double settle_time_ = 0.3;
+  double max_push_distance_ = 0.0;  ///< set by configure, from the arena
   std::unique_ptr<RobotPoseSource> pose_source_;
   ros::Publisher cmd_vel_pub_;
 };

@@ -9,6 +9,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -34,8 +35,10 @@ class RobotPoseSource {
   bool hasOdometry() const;
   /// The latest observation, if one arrived less than @p max_age seconds (ROS time) ago (0: any age).
   std::optional<FeatureVector> observation(double max_age = 0) const;
-  /// The objects of the latest observation as obstacles (sizes from @p sizes; unknown names are skipped).
-  std::vector<core::BoxObstacle> obstacles(const std::map<std::string, double>& sizes, double max_age = 0) const;
+  /// The objects of the latest observation as obstacles (footprints from @p footprints; unknown names are
+  /// skipped).
+  std::vector<core::Obstacle> obstacles(const std::map<std::string, core::Footprint>& footprints,
+                                        double max_age = 0) const;
   /// Seconds (ROS time) since the last odometry message (infinity before the first).
   double odometryAge() const;
 
