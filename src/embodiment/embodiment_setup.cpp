@@ -44,7 +44,6 @@ EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh) {
   if (radius <= 0) throw std::runtime_error("the robot in " + file + " has no collision shape on its root link");
   setup.robot_radius = radius;
   for (const auto& object : spec.objects) {
-    setup.object_footprints[object.name] = core::Footprint::ofShape(object.shape);
     setup.initial_poses[object.name] = {object.pose.translation().x(), object.pose.translation().y(),
                                         core::yawOf(object.pose)};
   }
@@ -52,6 +51,11 @@ EmbodimentSetup loadEmbodimentSetup(const ros::NodeHandle& nh) {
   setup.initial_poses[spec.robot.name] = {spec.robot.pose.translation().x(), spec.robot.pose.translation().y(),
                                           core::yawOf(spec.robot.pose)};
   return setup;
+}
+
+void EmbodimentSetup::takeObjectsFrom(const core::SetupCatalogue& catalogue) {
+  object_footprints.clear();
+  for (const auto& object : catalogue.objects) object_footprints[object.name] = object.footprint;
 }
 
 }  // namespace xpersif

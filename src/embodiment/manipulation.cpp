@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "xpersif/embodiment/relocation.h"  // describePose
+#include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
 
@@ -100,6 +101,7 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
 void Manipulation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
   double rate = 50, max_linear = 0.1, max_angular = 2.5, margin = 0.01, max_age = 2.0, settle = 0.3;
   // The longest push that stays well inside the arena: pushed from the centre, an object ends halfway to the
   // nearest wall (the planner still checks every push against the walls).

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "xpersif/ros/setup_loader.h"
+
 namespace xpersif {
 
 std::string describePose(double x, double y, double yaw) {
@@ -129,6 +131,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
 void Relocation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
+  setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
   double rate = 50, max_linear = 0.1, max_angular = 2.5, position_tolerance = 0.005, yaw_tolerance = 0.026;
   double margin = 0.01, obstacle_max_age = 5.0;
   std::string observation_topic = "observation/features";

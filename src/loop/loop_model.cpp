@@ -126,7 +126,7 @@ LoopModel::LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
       next_contract,
       [this](const SetExperiment::Request& r) {
         core::requireExperiment("experiment", fromMsg(r.experiment));
-        core::requireKnownName("experiment.object", r.experiment.object, setup_.objectNames());
+        core::throwIfInvalid(catalogue().checkExperiment("experiment", fromMsg(r.experiment)));
       },
       [this](const SetExperiment::Request& r, SetExperiment::Response& response) {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -165,6 +165,7 @@ void LoopModel::onConfigure() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     setup_ = setup;
+    std::lock_guard<std::mutex> catalogue_lock(catalogue_mutex_);
     catalogue_.reset();
     pose_source_ = pose_source;
     retries_ = retries;
@@ -250,18 +251,22 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_th
   return false;
 }
 
+const core::SetupCatalogue& LoopModel::catalogue() {
+  std::lock_guard<std::mutex> lock(catalogue_mutex_);
+  if (!catalogue_) catalogue_ = loadSetupCatalogue(nodeHandle(), privateNodeHandle());
+  return *catalogue_;
+}
+
 void LoopModel::tidyArena(const FeatureVector& scene) {
   std::vector<std::string> misplaced;
   std::vector<std::pair<double, double>> occupied;
   for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
   if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
-  if (!catalogue_) {
-    try {
-      catalogue_ = loadSetupCatalogue(nodeHandle(), privateNodeHandle());
-    } catch (const std::exception& e) {
-      ROS_WARN("%s: cannot tidy the arena: %s", name().c_str(), e.what());
-      return;
-    }
+  try {
+    catalogue();
+  } catch (const std::exception& e) {
+    ROS_WARN("%s: cannot tidy the arena: %s", name().c_str(), e.what());
+    return;
   }
   const double margin = tidy_margin_ >= 0 ? tidy_margin_ : catalogue_->wallMargin();
   const double spacing = tidy_spacing_ >= 0 ? tidy_spacing_ : catalogue_->objectSpacing();

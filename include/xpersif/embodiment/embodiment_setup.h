@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "xpersif/core/motion.h"
+#include "xpersif/core/setup.h"
 
 namespace xpersif {
 
@@ -27,6 +28,8 @@ struct EmbodimentSetup {
   std::map<std::string, core::Pose2D> initial_poses;  ///< where the world file puts the objects and the robot
   std::string robot_name;                             ///< the robot's body name (XPERSim's set_pose)
   std::vector<std::string> objectNames() const;
+  /// The objects come from XPERSim's scene (ros/setup_loader.h), never from the world file directly.
+  void takeObjectsFrom(const core::SetupCatalogue& catalogue);
 };
 
 /**

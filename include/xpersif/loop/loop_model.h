@@ -67,6 +67,9 @@ class LoopModel : public Supervisor {
   void publishProgress(Run::Context* context);
   /// Put cubes pushed against the walls or out of sight back at free spots.
   void tidyArena(const FeatureVector& scene);
+  /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
+  /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
+  const core::SetupCatalogue& catalogue();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why, double newer_than = 0);
@@ -75,6 +78,7 @@ class LoopModel : public Supervisor {
   std::mutex mutex_;
   EmbodimentSetup setup_;
   std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
+  std::mutex catalogue_mutex_;
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
