@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "ground_truth.h"
 #include "test_helpers.h"
 #include "xpersif/GetExperiments.h"
 #include "xpersif/GetNotions.h"
