@@ -73,6 +73,7 @@ RegionKey CuriosityMap::regionOf(const Experiment& experiment) const {
   const auto footprint = config_.footprints.find(experiment.object);
   if (footprint == config_.footprints.end()) throwIfInvalid(checkKnownName("experiment.object", experiment.object, config_.objects));
   const double limit = maxPushOffset(footprint->second, experiment.side);
+  throwIfInvalid(checkInRange("experiment.offset", experiment.offset, -limit, limit));
   const double unit = (experiment.offset + limit) / (2.0 * limit);  // [0, 1]
   key.offset_bin = std::clamp(static_cast<int>(std::floor(unit * config_.offset_bins)), 0, config_.offset_bins - 1);
   requireRegion(key);

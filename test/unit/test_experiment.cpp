@@ -69,8 +69,10 @@ TEST(Experiment, ChecksNameTheField) {
   EXPECT_EQ(checkExperiment("e", e), "");
   e.side = "left";
   EXPECT_NE(checkExperiment("e", e).find("e.side"), std::string::npos);
-  e = {"red_cube", "-x", 0.03, 0.1};
-  EXPECT_EQ(checkExperiment("e", e), "e.offset is 0.03; it must lie in [-0.02, 0.02]");
+  e = {"red_cube", "-x", 0.03, 0.1};  // the object's own limit is the set-up's to check (test_setup.cpp)
+  EXPECT_EQ(checkExperiment("e", e), "");
+  e = {"red_cube", "-x", 11, 0.1};
+  EXPECT_EQ(checkExperiment("e", e), "e.offset is 11; it must lie in [-10, 10]");
   e = {"red_cube", "-x", 0.0, 0.0};
   EXPECT_EQ(checkExperiment("e", e), "e.distance is 0; it must be greater than zero");
   e = {"", "-x", 0.0, 0.1};
