@@ -37,6 +37,8 @@ world=$(cd "$(dirname "$world")" && pwd)/$(basename "$world")  # absolute: the n
 bash "$repo/scripts/setup.sh"
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 set -u
+# A bad world starts nothing: one sentence naming the file and what is wrong, exit 2.
+xpersif check-world "$world" >/dev/null || exit 2
 run_dir="${XPERSIF_RUN_DIR:-$repo/runs/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$run_dir"
 run_dir=$(cd "$run_dir" && pwd)  # absolute: the nodes run in another working directory

@@ -18,6 +18,11 @@
 #include <csignal>
 #include <fstream>
 
+#include "xpersif/core/perception.h"
+#include "xpersif/core/physics_world.h"
+#include "xpersif/core/setup.h"
+#include "xpersif/core/validation.h"
+#include "xpersif/core/world_spec.h"
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/SetExperiment.h"
@@ -34,6 +39,8 @@ const char* kUsage = R"(usage: xpersif <command> [arguments]
   configure|activate|deactivate|shutdown COMPONENT
                                        ask a component for a lifecycle transition
   contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
+  check-world FILE                     check a world file without ROS: what the loop will be told about its
+                                       objects and the limits derived from them; exit 2 with the reason
 
 The loop (LOOPMODEL at --loop, default /xpersif/loop_model):
   run NAME [--experiments N] [--goals N] [--design curiosity|random|grid] [--seed S] [--resume]
@@ -337,6 +344,33 @@ int runLoop(const std::vector<std::string>& rest) {
 
 }  // namespace
 
+/// The world file as the loop will see it, ROS-free: what XPERSim builds from it, the catalogue the components
+/// read, and whether the cameras can tell every object apart.
+int checkWorld(const std::string& file) {
+  try {
+    const xpersif::core::WorldSpec spec = xpersif::core::loadWorldFile(file);
+    const xpersif::core::PhysicsWorld world(spec);
+    const xpersif::core::SetupCatalogue catalogue = xpersif::core::SetupCatalogue::fromScene(world.scene());
+    const xpersif::core::PerceptionCatalogue seen = xpersif::core::PerceptionCatalogue::fromScene(world.scene());
+    const std::string alike = xpersif::core::checkDistinguishable(seen);
+    if (!alike.empty()) throw xpersif::core::ValidationError(file + ": " + alike);
+    std::cout << file << ": " << spec.name << ", arena " << catalogue.arena_size_x << " x " << catalogue.arena_size_y
+              << " m, robot '" << spec.robot.name << "' of radius " << catalogue.robot_radius << " m\n";
+    for (const auto& o : catalogue.objects) {
+      std::cout << "  " << o.name << ": " << o.footprint.describe() << ", " << o.height << " m high, offsets up to "
+                << xpersif::core::maxPushOffset(o.footprint, "-x") << " (-x/+x) and "
+                << xpersif::core::maxPushOffset(o.footprint, "-y") << " (-y/+y) m\n";
+    }
+    std::cout << "  pushes of " << catalogue.minPushDistance() << " to " << catalogue.maxPushDistance()
+              << " m; tidying keeps objects " << catalogue.wallMargin() << " m from the walls and "
+              << catalogue.objectSpacing() << " m apart\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: " << e.what() << "\n";
+    return 2;
+  }
+}
+
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || args[0] == "-h" || args[0] == "--help") {
@@ -358,6 +392,13 @@ int main(int argc, char** argv) {
     } else {
       rest.push_back(args[i]);
     }
+  }
+  if (command == "check-world") {
+    if (rest.size() != 1) {
+      std::cerr << "xpersif: check-world needs one world file\n";
+      return 2;
+    }
+    return checkWorld(rest[0]);
   }
   ros::init(argc, argv, "xpersif_console", ros::init_options::AnonymousName | ros::init_options::NoSigintHandler);
   if (command == "wait") {
