@@ -81,7 +81,7 @@ const std::vector<FeatureInfo>& availableFeatures() {
       {"color_b", "1", "mean blue of the object's top-face pixels, 0..1"},
       {"size", "m", "edge length: mean of the back-projected top face's sides (forward camera: visible height)"},
       {"area", "m^2", "area of the back-projected top face"},
-      {"orientation", "rad", "yaw modulo the object's symmetry (pi/2 for a cube), in (-period/2, period/2]"},
+      {"orientation", "rad", "yaw modulo the object's symmetry (pi/2 for a cube), in (-period/2, period/2]; 0 for round objects"},
       {"elongation", "1", "long side over short side of the top face (1 for a square)"},
       {"distance_to_robot", "m", "horizontal distance from the robot's centre to the object's centre"},
       {"bearing_from_robot", "rad", "direction of the object in the robot's frame (0 ahead, + to the left)"},
@@ -163,6 +163,8 @@ std::map<std::string, std::map<std::string, double>> Vision::compute(const cv::M
       hueSaturation(rgb, hue, saturation);
     }
     const bool top_known = det.top_corners.size() == 4;
+    // A round object (upright cylinder, sphere) looks the same at every yaw: its frame is the world's.
+    const bool round = det.yaw_period >= 2 * M_PI - 1e-9;
     const double dx = det.position.x() - r.x, dy = det.position.y() - r.y;
     std::map<std::string, double>& f = out[name];
     for (const std::string& feature : selection.names()) {
@@ -186,10 +188,13 @@ std::map<std::string, std::map<std::string, double>> Vision::compute(const cv::M
         if (!(v > 0)) v = kNaN;
       } else if (feature == "area") {
         if (top_known) v = det.measured_length * det.measured_width;
+        if (round && det.measured_width > 0) v = M_PI * 0.25 * det.measured_width * det.measured_width;
       } else if (feature == "orientation") {
         if (det.yaw_known) v = det.yaw;
+        if (round) v = 0.0;
       } else if (feature == "elongation") {
         if (top_known && det.measured_width > 0) v = det.measured_length / det.measured_width;
+        if (round) v = 1.0;
       } else if (feature == "distance_to_robot") {
         if (have_robot) v = std::hypot(dx, dy);
       } else if (feature == "bearing_from_robot") {
