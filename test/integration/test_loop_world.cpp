@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <iostream>
 #include <map>
 #include <set>
 
@@ -69,6 +70,10 @@ TEST(LoopOnAnyWorld, ExperimentsOnEveryObjectAndTheImmovableNamed) {
   std::set<std::string> immobile;
   for (const auto& n : notions.response.notions) {
     if (n.predicate == "does_not_move_when_pushed") immobile.insert(n.subject);
+  }
+  for (const auto& object : world.objects) {
+    std::cout << world.name << ": " << object.name << " pushed " << done[object.name] << " times"
+              << (immobile.count(object.name) ? ", named immovable" : "") << "\n";
   }
   for (const auto& object : world.objects) {
     if (object.mass >= kImmovableMass && done[object.name] >= kPushesPerObject) {
