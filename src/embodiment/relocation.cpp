@@ -195,7 +195,19 @@ std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path)
   if (!why.empty()) return why;
   std::lock_guard<std::mutex> lock(mutex_);
   core::PathPlanner planner(setup_.arena, setup_.robot_radius, margin_);
-  if (!goal.straight) planner.setObstacles(pose_source_->obstacles(setup_.object_footprints, obstacle_max_age_));
+  if (!goal.straight) {
+    // The latest observation is the best knowledge of where the objects are, however old (they move only
+    // when pushed); planning as if the arena were empty would drive through them.
+    if (!pose_source_->observation(0)) {
+      return "no overhead observation of the objects has arrived yet, so no path around them can be planned "
+             "(a straight drive needs none)";
+    }
+    if (!pose_source_->observation(obstacle_max_age_)) {
+      ROS_WARN_THROTTLE(5.0, "%s: the latest observation is older than ~obstacle_max_age (%.1f s); planning around "
+                        "the objects where it saw them", name().c_str(), obstacle_max_age_);
+    }
+    planner.setObstacles(pose_source_->obstacles(setup_.object_footprints, 0));
+  }
   *path = planner.plan(start, toPose(goal.target));
   return path->ok ? "" : path->reason;
 }

@@ -10,7 +10,7 @@
  *
  * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
  * `~position_tolerance` (m, 0.005), `~yaw_tolerance` (rad, 0.026), `~margin` (m kept from walls and objects,
- * 0.01), `~observation_topic` (observation/features), `~obstacle_max_age` (s, 5), and the `world` file
+ * 0.01), `~observation_topic` (observation/features), `~obstacle_max_age` (s, 5: an older observation still places the obstacles, with a warning), and the `world` file
  * (embodiment_setup.h).
  */
 #pragma once
