@@ -1,3 +1,4 @@
+#include "xpersif/ros/setup_loader.h"
 #include "xpersif/cognition/knowledge_base.h"
 
 #include <std_msgs/UInt64.h>
@@ -94,7 +95,9 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
   core::Contract record = operation("record_experiment", "xpersif/RecordExperiment",
                                     "store an experiment in one transaction, then publish it on ~experiments");
   record.parameters = {"?run", "?object", "?side"};
-  record.preconditions = {{"running(?run)", "the experiment's run (0: the current one) must be running"}};
+  record.preconditions = {{"running(?run)", "the experiment's run (0: the current one) must be running"},
+                          {"in_setup(?object, ?side)",
+                           "the push must fit the set-up: a known object, its side, offset and distance within its limits"}};
   record.effects = {"recorded(?run, ?object, ?side)"};
   ContractChecker<RecordExperiment::Request> record_contract(record);
   record_contract
@@ -103,7 +106,14 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
                               {"?object", r.record.experiment.object},
                               {"?side", r.record.experiment.side}};
       })
-      .check("running(?run)", [this](const RecordExperiment::Request& r) { return checkRun(r.record.run_id, true); });
+      .check("running(?run)", [this](const RecordExperiment::Request& r) { return checkRun(r.record.run_id, true); })
+      .check("in_setup(?object, ?side)", [this](const RecordExperiment::Request& r) {
+        try {
+          return catalogue().checkExperiment("record.experiment", fromMsg(r.record.experiment));
+        } catch (const std::exception& e) {
+          return std::string("the set-up is unknown: ") + e.what();
+        }
+      });
   addOperation<RecordExperiment>(
       record_contract, [](const RecordExperiment::Request& r) { fromMsg(r.record); },
       [this](const RecordExperiment::Request& r, RecordExperiment::Response& response) {
@@ -181,6 +191,12 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
                              response.message = std::to_string(response.notions.size()) + " notions of run " +
                                                 std::to_string(run);
                            });
+}
+
+const core::SetupCatalogue& KnowledgeBaseComponent::catalogue() {
+  std::lock_guard<std::mutex> lock(catalogue_mutex_);
+  if (!catalogue_) catalogue_ = loadSetupCatalogue(nodeHandle(), privateNodeHandle());
+  return *catalogue_;
 }
 
 void KnowledgeBaseComponent::onConfigure() {

@@ -29,6 +29,7 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include "xpersif/FinishRun.h"
 #include "xpersif/GetExperiments.h"
@@ -40,6 +41,7 @@
 #include "xpersif/StartRun.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/knowledge_base.h"
+#include "xpersif/core/setup.h"
 
 namespace xpersif {
 
@@ -68,6 +70,11 @@ class KnowledgeBaseComponent : public Component {
   void onNotions(const Notions::ConstPtr& notions);
 
   mutable std::mutex mutex_;
+  /// The set-up's catalogue, read from XPERSim's scene the first time a record needs it (so that the knowledge
+  /// base can start before the simulator). @throws std::runtime_error when it cannot be had
+  const core::SetupCatalogue& catalogue();
+  std::mutex catalogue_mutex_;
+  std::optional<core::SetupCatalogue> catalogue_;
   std::shared_ptr<core::KnowledgeBase> kb_;
   std::int64_t current_run_ = 0;
   std::string model_topic_ = "machine_learning/model", notions_topic_ = "machine_learning/notions";
