@@ -47,7 +47,10 @@ fi
 # The shipped view's topics and parameter exist in the main job (names drift otherwise).
 /usr/bin/python3 "$repo/test/view_check.py" topics "$repo/rviz/xpersif.rviz"
 camera=$(/usr/bin/python3 "$repo/test/view_check.py" camera)
-roslaunch xpersif view.launch rviz_config:="$repo/test/rviz_main_topdown.rviz" telesim:=true \
+# The top-down view, zoomed so that this world's arena fits.
+scale=$(/usr/bin/python3 "$repo/test/view_check.py" scale)
+sed "s/^      Scale: 600\$/      Scale: $scale/" "$repo/test/rviz_main_topdown.rviz" >"$work/topdown.rviz"
+roslaunch xpersif view.launch rviz_config:="$work/topdown.rviz" telesim:=true \
   telesim_camera:="$camera" telesim_display:=false telesim_output_dir:="$work/telesim" telesim_max_fps:=10 \
   >"$work/view.log" 2>&1 &
 view=$!

@@ -4,6 +4,7 @@
   view_check.py topics RVIZ_CONFIG          every absolute topic of the rviz config is advertised, its
                                             robot description parameter is set
   view_check.py camera                      the first camera fixed to the world (for telesim_view)
+  view_check.py scale                       px/m of a top-down view that shows the whole arena
   view_check.py shot OUT.json SHOT.png      once a run is experimenting, pause XPERSim, screenshot the display,
                                             keep ground truth + scene
   view_check.py rviz OUT.json SHOT.png      each body's colour near its ground-truth pose in the top-down shot
@@ -93,6 +94,13 @@ def camera():
             print(c.name)
             return
     sys.exit("the scene has no camera fixed to the world")
+
+
+def scale():
+    """Pixels per metre for the top-down view that fits this world's arena into rviz's 3D view (~800 x 700)."""
+    scene = scene_msg()
+    floor = next(n for n in scene.nodes if n.name == "arena").visuals[0].box_size
+    print(int(min(600, 700 / floor.x, 500 / floor.y)))
 
 
 def shot(out, png):
@@ -263,6 +271,8 @@ if __name__ == "__main__":
         topics(sys.argv[2])
     elif command == "camera":
         camera()
+    elif command == "scale":
+        scale()
     elif command == "shot":
         shot(sys.argv[2], sys.argv[3])
     elif command == "rviz":
