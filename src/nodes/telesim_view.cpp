@@ -1,10 +1,11 @@
 // telesim_view: the paper's TeleSimView client. It fetches the scene once, subscribes to /tf, and
 // renders every frame itself from a chosen camera, so watching costs the simulator only tf messages.
 // Headless it writes images (and optionally a video) plus inter-frame statistics; with ~display it
-// shows a window.
+// shows a window. ~xpersim names the simulator to watch [/xpersif/xpersim, the main job's].
 #include <opencv2/highgui.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <ros/names.h>
 #include <ros/ros.h>
 
 #include <algorithm>
@@ -36,12 +37,15 @@ double mean(const std::vector<double>& values) {
 int main(int argc, char** argv) {
   ros::init(argc, argv, "telesim_view", ros::init_options::AnonymousName);
   ros::NodeHandle nh, pnh("~");
-  std::string camera_name = "overhead", service = "/xpersim/get_scene", output_dir, video_path;
+  // The scene comes from ~get_scene, by default ~xpersim's get_scene: the main job's XPERSim (/xpersif/xpersim);
+  // _xpersim:=/xpersim for the bare simulator of launch/xpersim.launch.
+  std::string camera_name = "overhead", xpersim = "/xpersif/xpersim", service, output_dir, video_path;
   double max_fps = 30, duration = 0;
   int save_every = 0;
   bool display = false;
   pnh.param("camera", camera_name, camera_name);
-  pnh.param("get_scene", service, service);
+  pnh.param("xpersim", xpersim, xpersim);
+  pnh.param("get_scene", service, ros::names::append(xpersim, "get_scene"));
   pnh.param("output_dir", output_dir, output_dir);
   pnh.param("video", video_path, video_path);
   pnh.param("max_fps", max_fps, max_fps);

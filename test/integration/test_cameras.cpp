@@ -101,7 +101,7 @@ TEST(Cameras, NodeletsInTheSameManagerGetTheImageWithoutACopy) {
 TEST(Cameras, TelesimViewRendersFromTfHeadless) {
   const std::string dir = "/tmp/telesim_view_test_" + std::to_string(getpid());
   ASSERT_EQ(system(("mkdir -p " + dir).c_str()), 0);
-  const std::string command = besideThisTest("telesim_view") + " _camera:=overhead _duration:=3 _output_dir:=" + dir +
+  const std::string command = besideThisTest("telesim_view") + " _xpersim:=/xpersim _camera:=overhead _duration:=3 _output_dir:=" + dir +
                               " _max_fps:=20 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
