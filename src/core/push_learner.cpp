@@ -136,10 +136,16 @@ cv::Ptr<cv::ml::RTrees> makeForest(const PushLearnerConfig& c, int inputs) {
 
 }  // namespace
 
-std::size_t PushLearner::modelSize(std::size_t n) {
+std::size_t PushLearner::trainedCount(std::size_t n) {
   if (n < kMinTrainingSamples) return 0;
   if (n <= kRetrainEveryUpTo) return n;
-  return n - (n - kRetrainEveryUpTo) % kRetrainStride;
+  // The stride doubles each time n doubles: a training costs about n log n, so the cost per sample stays bounded.
+  std::size_t base = kRetrainEveryUpTo, stride = kRetrainStride;
+  while (n >= 2 * base) {
+    base *= 2;
+    stride *= 2;
+  }
+  return n - (n - base) % stride;
 }
 
 void PushLearner::addSample(const PushInput& input, const Outcome& outcome) {
@@ -163,11 +169,11 @@ void PushLearner::addSamples(const std::vector<PushSample>& samples) {
     for (const auto& name : config_.feature_names) kept.input.object.extra[name] = s.input.object.extra.at(name);
     samples_.push_back(std::move(kept));
   }
-  if (modelSize(samples_.size()) != trained_count_) retrain();
+  if (trainedCount(samples_.size()) != trained_count_) retrain();
 }
 
 void PushLearner::retrain() {
-  const std::size_t n = modelSize(samples_.size());
+  const std::size_t n = trainedCount(samples_.size());
   if (n == 0) {
     model_.reset();
     trained_count_ = 0;
@@ -232,10 +238,19 @@ void PushLearner::retrain() {
       cv::theRNG() = callers;
       if (!trained) throw std::runtime_error("PushLearner: OpenCV RTrees training failed");
     }
+    // Out-of-bag predictions in one call per output: row by row, they cost as much as the training itself.
+    cv::Mat oob_rows;
+    std::vector<std::size_t> oob;
     for (std::size_t i = 0; i < n; ++i) {
       if (in_bag[i]) continue;
-      for (int k = 0; k < kOutputs; ++k) oob_sum[i][k] += member[k].predict(inputs.row(static_cast<int>(i)));
+      oob_rows.push_back(inputs.row(static_cast<int>(i)));
+      oob.push_back(i);
       ++oob_count[i];
+    }
+    for (int k = 0; k < kOutputs && !oob.empty(); ++k) {
+      cv::Mat predicted(static_cast<int>(oob.size()), 1, CV_32F, cv::Scalar(member[k].constant));
+      if (member[k].forest) member[k].forest->predict(oob_rows, predicted);
+      for (std::size_t j = 0; j < oob.size(); ++j) oob_sum[oob[j]][k] += predicted.at<float>(static_cast<int>(j));
     }
     model->members.push_back(member);
   }
