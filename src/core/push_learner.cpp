@@ -324,6 +324,22 @@ Prediction PushLearner::predict(const PushInput& input) const {
 
 // ---- save / load ---------------------------------------------------------------------------------------
 
+namespace {
+
+void writeSample(cv::FileStorage& out, const PushSample& s, const std::vector<std::string>& features) {
+  out << "{";
+  out << "object" << marked(s.input.experiment.object) << "side" << marked(s.input.experiment.side);
+  out << "offset" << s.input.experiment.offset << "distance" << s.input.experiment.distance;
+  out << "pose" << std::vector<double>{s.input.object.x, s.input.object.y, s.input.object.yaw};
+  std::vector<double> values;
+  for (const auto& name : features) values.push_back(s.input.object.extra.at(name));
+  out << "features" << values;
+  out << "outcome" << std::vector<double>{s.outcome.dx, s.outcome.dy, s.outcome.dyaw};
+  out << "}";
+}
+
+}  // namespace
+
 std::string PushLearner::save() const {
   const PushLearnerConfig& c = config_;
   // FileStorage keys must be identifiers, and feature names need not be: write the config as lists.
@@ -344,19 +360,19 @@ std::string PushLearner::save() const {
   out << "prior_std" << std::vector<double>{c.prior_std.dx, c.prior_std.dy, c.prior_std.dyaw};
   out << "novelty_length" << c.novelty_length << "noise_neighbours" << c.noise_neighbours;
 
-  out << "samples" << "[";
-  for (const auto& s : samples_) {
-    out << "{";
-    out << "object" << marked(s.input.experiment.object) << "side" << marked(s.input.experiment.side);
-    out << "offset" << s.input.experiment.offset << "distance" << s.input.experiment.distance;
-    out << "pose" << std::vector<double>{s.input.object.x, s.input.object.y, s.input.object.yaw};
-    std::vector<double> features;
-    for (const auto& name : c.feature_names) features.push_back(s.input.object.extra.at(name));
-    out << "features" << features;
-    out << "outcome" << std::vector<double>{s.outcome.dx, s.outcome.dy, s.outcome.dyaw};
-    out << "}";
+  // The samples, most of the bytes, are written once each and kept: a model of 2000 samples took tens of ms to
+  // write, every experiment. An item's text does not depend on its neighbours, so cached items splice in.
+  if (saved_count_ < samples_.size()) {
+    cv::FileStorage items(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+    items << "samples" << "[";
+    for (std::size_t i = saved_count_; i < samples_.size(); ++i) writeSample(items, samples_[i], c.feature_names);
+    items << "]";
+    const std::string text = items.releaseAndGetString();
+    const std::string key = "\nsamples:\n";
+    saved_samples_ += text.substr(text.find(key) + key.size());
+    saved_count_ = samples_.size();
   }
-  out << "]";
+  out << "samples" << "[" << "]";
   // Fingerprint: predictions at some sample inputs, to prove after loading that the model is the same.
   out << "fingerprint" << "[";
   for (std::size_t i = 0; i < std::min(kFingerprintProbes, samples_.size()); ++i) {
@@ -366,8 +382,17 @@ std::string PushLearner::save() const {
                                p.std.dyaw};
   }
   out << "]";
-  return out.releaseAndGetString();
+  std::string bytes = out.releaseAndGetString();
+  if (!samples_.empty()) {
+    // Keys start lines and names are quoted with escaped line breaks: this empty list is the samples'.
+    const std::string empty = "\nsamples:\n   []\n";
+    const std::size_t at = bytes.find(empty);
+    if (at == std::string::npos) throw std::logic_error("PushLearner::save: OpenCV wrote an unexpected layout");
+    bytes.replace(at, empty.size(), "\nsamples:\n" + saved_samples_);
+  }
+  return bytes;
 }
+
 
 namespace {
 

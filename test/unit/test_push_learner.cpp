@@ -216,6 +216,12 @@ TEST(PushLearner, SaveLoadGivesIdenticalPredictions) {
   loaded.addSamples(more);
   const PushInput probe = inputFor(kCubes[1], "+y", 0.01, 0.07);
   EXPECT_EQ(learner.predict(probe).mean.dx, loaded.predict(probe).mean.dx);
+  // save() keeps the samples' text between calls: saved again after more samples, the bytes are those of a
+  // learner that saves once.
+  PushLearner fresh(config);
+  fresh.addSamples(learner.samples());
+  EXPECT_EQ(learner.save(), fresh.save());
+  EXPECT_EQ(loaded.save(), fresh.save());
   // Names that YAML or FileStorage would read as structure ('[', '{', ':', quotes) survive the round trip.
   PushLearnerConfig odd_config;
   odd_config.feature_names = {"{hue}", "[size]"};

@@ -41,7 +41,8 @@
  * model that lags the data by at most 10 % of them. The single experiment that retrains still pays the whole
  * training.
  *
- * Not thread-safe: one owner (the MACHINELEARNING component) calls it.
+ * Not thread-safe: one owner (the MACHINELEARNING component) calls it; save() updates a cache, so not even const
+ * calls may overlap with it.
  */
 #pragma once
 
@@ -132,6 +133,9 @@ class PushLearner {
   std::vector<PushSample> samples_;
   std::size_t trained_count_ = 0;
   std::unique_ptr<Model> model_;
+  // save()'s text of the first saved_count_ samples: samples only grow, so each is written once.
+  mutable std::string saved_samples_;
+  mutable std::size_t saved_count_ = 0;
 };
 
 /// Learned facts from pushes, per object (objects in name order). Predicates:
