@@ -35,9 +35,9 @@
  * those wait for the next retraining (they are stored and saved, but neither the forests nor the novelty and
  * noise terms see them yet). The schedule: every sample up to kRetrainEveryUpTo (40) samples; then every
  * kRetrainStride (4) samples, a stride that doubles each time n doubles (8 from 80, 16 from 160, ... 128 from
- * 1280). Why: a training costs at least n log n (about 0.3 s at 500 samples, 1 s at 2000 on a busy 2-core
- * machine), so retraining every k samples costs n log n / k per sample, which grows with n for a fixed k; a
- * stride of 5-10 % of n keeps it nearly constant (about 10 ms per sample, bench/learning.md), at the price of a
+ * 1280). Why: a training costs at least in proportion to n (about 0.3 s at 500 samples, 1.3 s at 2000 on a busy
+ * 2-core machine), so retraining every k samples costs at least n / k per sample, which grows with n for a fixed
+ * k; a stride of 5-10 % of n keeps it about constant (10-20 ms per sample, bench/learning.md), at the price of a
  * model that lags the data by at most 10 % of them. The single experiment that retrains still pays the whole
  * training.
  *
