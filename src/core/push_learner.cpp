@@ -136,10 +136,16 @@ cv::Ptr<cv::ml::RTrees> makeForest(const PushLearnerConfig& c, int inputs) {
 
 }  // namespace
 
-std::size_t PushLearner::modelSize(std::size_t n) {
+std::size_t PushLearner::trainedCount(std::size_t n) {
   if (n < kMinTrainingSamples) return 0;
   if (n <= kRetrainEveryUpTo) return n;
-  return n - (n - kRetrainEveryUpTo) % kRetrainStride;
+  // The stride doubles each time n doubles: a training costs about n log n, so the cost per sample stays bounded.
+  std::size_t base = kRetrainEveryUpTo, stride = kRetrainStride;
+  while (n >= 2 * base) {
+    base *= 2;
+    stride *= 2;
+  }
+  return n - (n - base) % stride;
 }
 
 void PushLearner::addSample(const PushInput& input, const Outcome& outcome) {
@@ -163,11 +169,11 @@ void PushLearner::addSamples(const std::vector<PushSample>& samples) {
     for (const auto& name : config_.feature_names) kept.input.object.extra[name] = s.input.object.extra.at(name);
     samples_.push_back(std::move(kept));
   }
-  if (modelSize(samples_.size()) != trained_count_) retrain();
+  if (trainedCount(samples_.size()) != trained_count_) retrain();
 }
 
 void PushLearner::retrain() {
-  const std::size_t n = modelSize(samples_.size());
+  const std::size_t n = trainedCount(samples_.size());
   if (n == 0) {
     model_.reset();
     trained_count_ = 0;
@@ -232,10 +238,19 @@ void PushLearner::retrain() {
       cv::theRNG() = callers;
       if (!trained) throw std::runtime_error("PushLearner: OpenCV RTrees training failed");
     }
+    // Out-of-bag predictions in one call per output: row by row, they cost as much as the training itself.
+    cv::Mat oob_rows;
+    std::vector<std::size_t> oob;
     for (std::size_t i = 0; i < n; ++i) {
       if (in_bag[i]) continue;
-      for (int k = 0; k < kOutputs; ++k) oob_sum[i][k] += member[k].predict(inputs.row(static_cast<int>(i)));
+      oob_rows.push_back(inputs.row(static_cast<int>(i)));
+      oob.push_back(i);
       ++oob_count[i];
+    }
+    for (int k = 0; k < kOutputs && !oob.empty(); ++k) {
+      cv::Mat predicted(static_cast<int>(oob.size()), 1, CV_32F, cv::Scalar(member[k].constant));
+      if (member[k].forest) member[k].forest->predict(oob_rows, predicted);
+      for (std::size_t j = 0; j < oob.size(); ++j) oob_sum[oob[j]][k] += predicted.at<float>(static_cast<int>(j));
     }
     model->members.push_back(member);
   }
@@ -309,6 +324,22 @@ Prediction PushLearner::predict(const PushInput& input) const {
 
 // ---- save / load ---------------------------------------------------------------------------------------
 
+namespace {
+
+void writeSample(cv::FileStorage& out, const PushSample& s, const std::vector<std::string>& features) {
+  out << "{";
+  out << "object" << marked(s.input.experiment.object) << "side" << marked(s.input.experiment.side);
+  out << "offset" << s.input.experiment.offset << "distance" << s.input.experiment.distance;
+  out << "pose" << std::vector<double>{s.input.object.x, s.input.object.y, s.input.object.yaw};
+  std::vector<double> values;
+  for (const auto& name : features) values.push_back(s.input.object.extra.at(name));
+  out << "features" << values;
+  out << "outcome" << std::vector<double>{s.outcome.dx, s.outcome.dy, s.outcome.dyaw};
+  out << "}";
+}
+
+}  // namespace
+
 std::string PushLearner::save() const {
   const PushLearnerConfig& c = config_;
   // FileStorage keys must be identifiers, and feature names need not be: write the config as lists.
@@ -329,19 +360,19 @@ std::string PushLearner::save() const {
   out << "prior_std" << std::vector<double>{c.prior_std.dx, c.prior_std.dy, c.prior_std.dyaw};
   out << "novelty_length" << c.novelty_length << "noise_neighbours" << c.noise_neighbours;
 
-  out << "samples" << "[";
-  for (const auto& s : samples_) {
-    out << "{";
-    out << "object" << marked(s.input.experiment.object) << "side" << marked(s.input.experiment.side);
-    out << "offset" << s.input.experiment.offset << "distance" << s.input.experiment.distance;
-    out << "pose" << std::vector<double>{s.input.object.x, s.input.object.y, s.input.object.yaw};
-    std::vector<double> features;
-    for (const auto& name : c.feature_names) features.push_back(s.input.object.extra.at(name));
-    out << "features" << features;
-    out << "outcome" << std::vector<double>{s.outcome.dx, s.outcome.dy, s.outcome.dyaw};
-    out << "}";
+  // The samples, most of the bytes, are written once each and kept: a model of 2000 samples took tens of ms to
+  // write, every experiment. An item's text does not depend on its neighbours, so cached items splice in.
+  if (saved_count_ < samples_.size()) {
+    cv::FileStorage items(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+    items << "samples" << "[";
+    for (std::size_t i = saved_count_; i < samples_.size(); ++i) writeSample(items, samples_[i], c.feature_names);
+    items << "]";
+    const std::string text = items.releaseAndGetString();
+    const std::string key = "\nsamples:\n";
+    saved_samples_ += text.substr(text.find(key) + key.size());
+    saved_count_ = samples_.size();
   }
-  out << "]";
+  out << "samples" << "[" << "]";
   // Fingerprint: predictions at some sample inputs, to prove after loading that the model is the same.
   out << "fingerprint" << "[";
   for (std::size_t i = 0; i < std::min(kFingerprintProbes, samples_.size()); ++i) {
@@ -351,8 +382,17 @@ std::string PushLearner::save() const {
                                p.std.dyaw};
   }
   out << "]";
-  return out.releaseAndGetString();
+  std::string bytes = out.releaseAndGetString();
+  if (!samples_.empty()) {
+    // Keys start lines and names are quoted with escaped line breaks: this empty list is the samples'.
+    const std::string empty = "\nsamples:\n   []\n";
+    const std::size_t at = bytes.find(empty);
+    if (at == std::string::npos) throw std::logic_error("PushLearner::save: OpenCV wrote an unexpected layout");
+    bytes.replace(at, empty.size(), "\nsamples:\n" + saved_samples_);
+  }
+  return bytes;
 }
+
 
 namespace {
 

@@ -163,6 +163,29 @@ TEST(PushLearner, TrainingIsDeterministicAndOrderDefined) {
   EXPECT_TRUE(seed_matters);
 }
 
+TEST(PushLearner, RetrainingScheduleKeepsTheCostPerSampleBounded) {
+  // Not timed: the schedule's shape. A training costs about n log n, so the bound needs strides that grow with n.
+  std::size_t trainings = 0, previous = 0;
+  for (std::size_t n = 0; n <= 2000; ++n) {
+    const std::size_t t = PushLearner::trainedCount(n);
+    EXPECT_GE(t, previous) << n;  // monotone
+    EXPECT_LE(t, n);
+    if (n >= PushLearner::kMinTrainingSamples) EXPECT_LE(n - t, n / 10) << n;  // lags by at most 10 %
+    if (n <= PushLearner::kRetrainEveryUpTo && n >= PushLearner::kMinTrainingSamples) EXPECT_EQ(t, n);
+    trainings += t != previous;
+    previous = t;
+  }
+  EXPECT_LE(trainings, 100u);  // 648 with the earlier schedule (every sample to 500, then every 10)
+  EXPECT_EQ(PushLearner::trainedCount(2), 0u);
+  // The learner follows the rule whether samples come one by one or in a batch.
+  PushLearner one_by_one, batch;
+  const auto data = pushes(90, 4);
+  for (const auto& s : data) one_by_one.addSample(s.input, s.outcome);
+  batch.addSamples(data);
+  EXPECT_EQ(one_by_one.trainedCount(), PushLearner::trainedCount(90));
+  EXPECT_EQ(batch.trainedCount(), PushLearner::trainedCount(90));
+}
+
 TEST(PushLearner, SaveLoadGivesIdenticalPredictions) {
   PushLearnerConfig config;
   config.one_hot_identity = true;
@@ -193,6 +216,12 @@ TEST(PushLearner, SaveLoadGivesIdenticalPredictions) {
   loaded.addSamples(more);
   const PushInput probe = inputFor(kCubes[1], "+y", 0.01, 0.07);
   EXPECT_EQ(learner.predict(probe).mean.dx, loaded.predict(probe).mean.dx);
+  // save() keeps the samples' text between calls: saved again after more samples, the bytes are those of a
+  // learner that saves once.
+  PushLearner fresh(config);
+  fresh.addSamples(learner.samples());
+  EXPECT_EQ(learner.save(), fresh.save());
+  EXPECT_EQ(loaded.save(), fresh.save());
   // Names that YAML or FileStorage would read as structure ('[', '{', ':', quotes) survive the round trip.
   PushLearnerConfig odd_config;
   odd_config.feature_names = {"{hue}", "[size]"};

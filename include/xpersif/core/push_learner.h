@@ -30,11 +30,19 @@
  *
  * Determinism. Bootstrap resamples are drawn with cv::RNG seeded from the config's seed; OpenCV's RTrees seeds
  * its own generator at every training. The same samples in the same order give the same predictions, so
- * training offline from recorded pushes gives the model the live run had. After kRetrainEveryUpTo samples the
- * model retrains every kRetrainStride samples; the model after n samples is always the one trained on the first
- * trainedCount(n) samples, whether they came one by one or in a batch.
+ * training offline from recorded pushes gives the model the live run had. The model after n samples is always the
+ * one trained on the first trainedCount(n) samples, whether they came one by one or in a batch; samples after
+ * those wait for the next retraining (they are stored and saved, but neither the forests nor the novelty and
+ * noise terms see them yet). The schedule: every sample up to kRetrainEveryUpTo (40) samples; then every
+ * kRetrainStride (4) samples, a stride that doubles each time n doubles (8 from 80, 16 from 160, ... 128 from
+ * 1280). Why: a training costs at least in proportion to n (about 0.3 s at 500 samples, 1.3 s at 2000 on a busy
+ * 2-core machine), so retraining every k samples costs at least n / k per sample, which grows with n for a fixed
+ * k; a stride of 5-10 % of n keeps it about constant (10-20 ms per sample, bench/learning.md), at the price of a
+ * model that lags the data by at most 10 % of them. The single experiment that retrains still pays the whole
+ * training.
  *
- * Not thread-safe: one owner (the MACHINELEARNING component) calls it.
+ * Not thread-safe: one owner (the MACHINELEARNING component) calls it; save() updates a cache, so not even const
+ * calls may overlap with it.
  */
 #pragma once
 
@@ -80,8 +88,8 @@ struct PushLearnerConfig {
 class PushLearner {
  public:
   static constexpr std::size_t kMinTrainingSamples = 3;
-  static constexpr std::size_t kRetrainEveryUpTo = 500;
-  static constexpr std::size_t kRetrainStride = 10;
+  static constexpr std::size_t kRetrainEveryUpTo = 40;  ///< retrain at every sample up to this many
+  static constexpr std::size_t kRetrainStride = 4;      ///< then every this many, doubled each time n doubles
   static constexpr std::size_t kMaxSamples = 100000;
 
   /// Throws ValidationError for a bad config (sizes < 1, non-positive scales or stds).
@@ -99,8 +107,10 @@ class PushLearner {
   Prediction predict(const PushInput& input) const;
 
   std::size_t sampleCount() const { return samples_.size(); }
-  /// How many of the first samples the current model was trained on.
+  /// How many of the first samples the current model was trained on: trainedCount(sampleCount()).
   std::size_t trainedCount() const { return trained_count_; }
+  /// The retraining schedule, the one rule for when the model retrains (see Determinism).
+  static std::size_t trainedCount(std::size_t n);
   const std::vector<PushSample>& samples() const { return samples_; }
   const PushLearnerConfig& config() const { return config_; }
 
@@ -118,12 +128,14 @@ class PushLearner {
   struct Model;
   void validate(const PushInput& input, const std::string& field) const;
   void retrain();
-  static std::size_t modelSize(std::size_t n);
 
   PushLearnerConfig config_;
   std::vector<PushSample> samples_;
   std::size_t trained_count_ = 0;
   std::unique_ptr<Model> model_;
+  // save()'s text of the first saved_count_ samples: samples only grow, so each is written once.
+  mutable std::string saved_samples_;
+  mutable std::size_t saved_count_ = 0;
 };
 
 /// Learned facts from pushes, per object (objects in name order). Predicates:
