@@ -30,11 +30,21 @@ void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
   linear_ = odom->twist.twist.linear.x;
   angular_ = odom->twist.twist.angular.z;
   last_odometry_ = ros::Time::now();
+  odometry_stamp_ = odom->header.stamp;
+  arrived_.notify_all();
+}
+
+bool RobotPoseSource::waitFor(const ros::Time& stamp, bool observation, double timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return arrived_.wait_for(lock, std::chrono::duration<double>(timeout), [&] {
+    return odometry_stamp_ >= stamp && (!observation || (observation_ && observation_->header.stamp >= stamp));
+  });
 }
 
 void RobotPoseSource::onObservation(const FeatureVector::ConstPtr& features) {
   std::lock_guard<std::mutex> lock(mutex_);
   observation_ = features;
+  arrived_.notify_all();
   if (!features->robot_found) return;
   try {
     correction_.addFix(features->header.stamp.toSec(), {features->robot.x, features->robot.y, features->robot.theta});

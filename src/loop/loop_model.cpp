@@ -179,6 +179,7 @@ void LoopModel::onConfigure() {
     progress_.state = "idle";
     if (!progress_pub_) progress_pub_ = pnh.advertise<RunLoopFeedback>("progress", 1, true);
   }
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), pnh, pnh.getNamespace(), false);
   model_sub_ = nodeHandle().subscribe<LearnedModel>("machine_learning/model", 1, [this](const LearnedModel::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     model_samples_ = m->samples;
@@ -245,7 +246,12 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_th
       if (why->empty()) *why = "no new observation of the scene came within 10 s";
       return false;
     }
-    ros::WallDuration(0.02).sleep();
+    // In lockstep time passes only when someone asks for it: let the overhead camera see again.
+    if (lockstep_ && lockstep_->enabled()) {
+      lockstep_->sleepFor(ros::Duration(0.05));
+    } else {
+      ros::WallDuration(0.02).sleep();
+    }
   }
   *why = "shutting down";
   return false;
@@ -493,7 +499,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   if (arrange_at_start_ && !start.response.resumed) {
     why = arrangeInitialScene();
     if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
-    ros::Duration(0.5).sleep();  // let odometry and the overhead camera see the new scene
+    lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
   }
   std::uint32_t done = start.response.experiments_done;  // counted towards goal.experiments
   std::uint32_t learned = 0;  // successful experiments the model has seen in this run

@@ -41,6 +41,7 @@
 #include "xpersif/Motivation.h"
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/SetExperiment.h"
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/component/supervisor.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
@@ -79,6 +80,7 @@ class LoopModel : public Supervisor {
   EmbodimentSetup setup_;
   std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
   std::mutex catalogue_mutex_;
+  std::unique_ptr<LockstepClient> lockstep_;  // lets simulated time pass while it waits (lockstep mode)
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
