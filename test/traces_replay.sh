@@ -70,7 +70,7 @@ rosrun nodelet nodelet standalone xpersif/FeatureExtractionNodelet __name:=repla
   _scene_topic:=/xpersif/xpersim/scene >"$T/extraction.log" 2>&1 &
 PIDS+=($!)
 rosrun nodelet nodelet standalone xpersif/MachineLearningNodelet __name:=replay_learning __ns:=/xpersif \
-  _autostart:=true _restore:=false >"$T/learning.log" 2>&1 &
+  _autostart:=true _restore:=false _world:="$HERE/worlds/default.yaml" >"$T/learning.log" 2>&1 &
 PIDS+=($!)
 xpersif wait --timeout 120 /xpersif/replay_extraction /xpersif/replay_learning >"$T/wait2.log" 2>&1 ||
   fail "the replay components did not come up: $(tail -5 "$T/wait2.log")"

@@ -3,13 +3,32 @@
 #include <stdexcept>
 
 #include "xpersif/GetScene.h"
+#include "xpersif/core/physics_world.h"
 #include "xpersif/core/validation.h"
+#include "xpersif/core/world_spec.h"
 #include "xpersif/ros/conversions.h"
 
 namespace xpersif {
 
+namespace {
+core::SetupCatalogue restricted(core::SetupCatalogue catalogue, const ros::NodeHandle& private_nh) {
+  std::vector<std::string> objects;
+  if (private_nh.getParam("objects", objects)) catalogue = catalogue.restrictedTo(objects, "~objects");
+  return catalogue;
+}
+}  // namespace
+
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
-  std::string service = "xpersim/get_scene", key;
+  std::string service = "xpersim/get_scene", key, world_file;
+  // No simulator (a bag being replayed): the scene XPERSim would build from the same world file.
+  if (private_nh.getParam("world", world_file)) {
+    try {
+      return restricted(core::SetupCatalogue::fromScene(core::PhysicsWorld(core::loadWorldFile(world_file)).scene()),
+                        private_nh);
+    } catch (const core::WorldError& e) {
+      throw std::runtime_error(std::string("~world: ") + e.what());
+    }
+  }
   double timeout = 30.0;
   if (private_nh.searchParam("scene_service", key)) private_nh.getParam(key, service);
   if (private_nh.searchParam("scene_timeout", key)) private_nh.getParam(key, timeout);
@@ -24,10 +43,7 @@ core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::No
     throw std::runtime_error("no scene from " + service + ": " +
                              (call.response.message.empty() ? std::string("the call failed") : call.response.message));
   }
-  core::SetupCatalogue catalogue = core::SetupCatalogue::fromScene(fromSceneMsg(call.response.scene));
-  std::vector<std::string> objects;
-  if (private_nh.getParam("objects", objects)) catalogue = catalogue.restrictedTo(objects, "~objects");
-  return catalogue;
+  return restricted(core::SetupCatalogue::fromScene(fromSceneMsg(call.response.scene)), private_nh);
 }
 
 }  // namespace xpersif

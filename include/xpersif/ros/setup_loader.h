@@ -16,7 +16,9 @@ namespace xpersif {
  * @brief The catalogue from XPERSim's scene. The operation is the `scene_service` parameter (searched upwards
  *        from @p private_nh; default "xpersim/get_scene" in @p nh's namespace), waited for up to
  *        `scene_timeout` s (30). The private parameter `~objects`, when set, restricts the catalogue to those
- *        objects (a name the scene lacks is an error naming it and the world file).
+ *        objects (a name the scene lacks is an error naming it and the world file). With no simulator to ask
+ *        (a recorded run being replayed), a private `~world` parameter names the world file instead, and the
+ *        catalogue is that of the scene XPERSim builds from it.
  * @throws std::runtime_error (or core::ValidationError) with a sentence when the scene cannot be had or used
  */
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
