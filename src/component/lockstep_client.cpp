@@ -47,7 +47,7 @@ LockstepClient::Tick LockstepClient::join(double timeout) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   joined_ = true;
-  Tick now{call.response.tick, call.response.phase, call.response.stamp, {}};
+  Tick now{call.response.tick, call.response.phase, call.response.stamp, {}, false, 0.0};
   // An actor joining while the ACT phase runs is not owed a report for it, but may report it to ask for time.
   if (call.response.phase == LockstepTick::SENSE) now.phase = LockstepTick::SENSE;
   return now;
@@ -130,7 +130,7 @@ void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
 }
 
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
-  Tick tick{message->tick, message->phase, message->stamp, message->fresh};
+  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle, message->physics_time};
   std::function<void(const Tick&)> callback;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -159,7 +159,6 @@ Execution::~Execution() = default;
 
 void Execution::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), pnh, pnh.getNamespace(), false);
   double max_age = 1.0, fresh_timeout = 5.0, server_timeout = 10.0, step_timeout = 300.0;
   pnh.param("max_age", max_age, max_age);
   pnh.param("fresh_timeout", fresh_timeout, fresh_timeout);
@@ -265,12 +264,8 @@ std::string Execution::getFeatures(ExecutePlan::Context& context, const std::str
       return "";
     }
     if (context.stopRequested() || ros::Time::now() > deadline) return why;
-    // In lockstep time passes only when someone asks for it: let the camera see again.
-    if (lockstep_ && lockstep_->enabled()) {
-      lockstep_->sleepFor(ros::Duration(0.05));
-    } else {
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
+    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
 

@@ -246,12 +246,8 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_th
       if (why->empty()) *why = "no new observation of the scene came within 10 s";
       return false;
     }
-    // In lockstep time passes only when someone asks for it: let the overhead camera see again.
-    if (lockstep_ && lockstep_->enabled()) {
-      lockstep_->sleepFor(ros::Duration(0.05));
-    } else {
-      ros::WallDuration(0.02).sleep();
-    }
+    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
+    ros::WallDuration(0.02).sleep();
   }
   *why = "shutting down";
   return false;

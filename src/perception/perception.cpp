@@ -92,13 +92,15 @@ void Perception::onActivate() {
     return;
   }
   // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
-  next_due_ = ros::Time(0);
+  next_due_ = 0;
   lockstep_->onTick([this](const LockstepClient::Tick& t) {
+    // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
+    // idle tick shows the standing world again (to whoever waits for a new frame).
     bool published = false;
-    if (t.stamp >= next_due_) {
+    if (t.idle || t.physics_time >= next_due_) {
       auto camera = camera_.camera();
       if (camera && camera->tracker().waitForStamp(t.stamp, 10.0)) published = tick(t.stamp);
-      next_due_ = t.stamp + ros::Duration(1.0 / rate_);
+      if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
     }
     lockstep_->report(t, false, published);
   });

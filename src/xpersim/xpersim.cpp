@@ -111,12 +111,12 @@ void XPerSim::declareOperations() {
           lockstep_->requestTicks(ticks);
           lockstep_wake_.notify_all();
           while (ticks_done_ < until && running_ && ros::ok()) lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
-          response.time = world_->time();
+          response.time = simTimeLocked();
           return;
         }
         paused_ = true;
         for (std::int64_t i = 0; i < request.steps; ++i) stepLocked();
-        response.time = world_->time();
+        response.time = simTimeLocked();
       });
 
   core::Contract lockstep = operation("lockstep", "xpersif/Lockstep", "join or leave the lockstep clock",
@@ -149,7 +149,7 @@ void XPerSim::declareOperations() {
         response.tick = lockstep_->tick();
         response.phase = lockstep_->phase() == core::LockstepCoordinator::Phase::Sense ? LockstepTick::SENSE
                                                                                         : LockstepTick::ACT;
-        response.stamp = ros::Time(world_->time());
+        response.stamp = ros::Time(simTimeLocked());
         response.complete = lockstep_->phaseComplete();
         response.message = request.participant + (request.join ? " joined" : " left") + " at tick " +
                            std::to_string(response.tick);
@@ -162,6 +162,7 @@ void XPerSim::declareOperations() {
                         nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
                           std::lock_guard<std::mutex> lock(world_mutex_);
                           world_->reset();
+                          idle_time_ = 0;
                           next_frame_ = next_sensors_ = 0;
                           restart_pacing_ = true;
                           publishFrameLocked();
@@ -234,6 +235,9 @@ void XPerSim::onConfigure() {
   pnh.param("start_paused", start_paused, start_paused);
   pnh.param("tick_period", tick_period, tick_period);
   pnh.param("participant_timeout", participant_timeout, participant_timeout);
+  double idle_period = 0.05;
+  pnh.param("idle_period", idle_period, idle_period);
+  core::requireInRange("~idle_period", idle_period, 1e-3, 10.0);
   core::requireInRange("~tick_period", tick_period, 1e-4, 1.0);
   core::requireInRange("~participant_timeout", participant_timeout, 0.01, 3600.0);
   core::requireOneOf("~clock_mode", mode, {"realtime", "fast", "lockstep"});
@@ -257,11 +261,14 @@ void XPerSim::onConfigure() {
   // Lockstep: whole physics steps per control tick; participants join again after a reconfigure.
   steps_per_tick_ = std::max(1, static_cast<int>(std::lround(tick_period / world_->spec().physics.step)));
   tick_period_ = steps_per_tick_ * world_->spec().physics.step;
+  idle_period_ = idle_period;
+  idle_time_ = 0;
   lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
 
   ros::NodeHandle& nh = nodeHandle();
   if (!clock_pub_) {
-    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    // Latched: a node that starts while a lockstep clock stands still still learns what time it is.
+    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10, true);
     tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
     tf_static_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
     scene_pub_ = pnh.advertise<Scene>("scene", 1, true);
@@ -309,7 +316,7 @@ void XPerSim::onConfigure() {
 void XPerSim::publishDescriptionLocked() {
   const core::SceneDescription& scene = world_->scene();
   Scene scene_msg = toSceneMsg(scene);
-  scene_msg.header.stamp = ros::Time(world_->time());
+  scene_msg.header.stamp = ros::Time(simTimeLocked());
   scene_pub_.publish(scene_msg);
 
   tf2_msgs::TFMessage fixed;
@@ -364,7 +371,7 @@ void XPerSim::publishDescriptionLocked() {
 }
 
 void XPerSim::publishFrameLocked() {
-  const ros::Time stamp(world_->time());
+  const ros::Time stamp(simTimeLocked());
   rosgraph_msgs::Clock clock;
   clock.clock = stamp;
   clock_pub_.publish(clock);
@@ -384,7 +391,7 @@ void XPerSim::publishFrameLocked() {
 }
 
 void XPerSim::publishSensorsLocked() {
-  const ros::Time stamp(world_->time());
+  const ros::Time stamp(simTimeLocked());
   const core::WorldSpec& spec = world_->spec();
 
   BodyPoses truth;
@@ -439,7 +446,7 @@ bool XPerSim::physicsStepLocked() {
 
 void XPerSim::stepLocked() {
   if (!physicsStepLocked()) return;
-  const double t = world_->time() + 1e-9;
+  const double t = simTimeLocked() + 1e-9;
   // In fast mode frames are also limited per wall second: viewers cannot use 30k frames/s, and the
   // messages would cost more than the physics (bench/README.md).
   bool frame_allowed = true;
@@ -480,7 +487,9 @@ void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::strin
   LockstepTick tick;
   tick.tick = lockstep_->tick();
   tick.phase = phase;
-  tick.stamp = ros::Time(world_->time());
+  tick.stamp = ros::Time(simTimeLocked());
+  tick.idle = last_tick_idle_;
+  tick.physics_time = world_->time();
   tick.fresh = fresh;
   tick.participants = lockstep_->participants();
   tick_pub_.publish(tick);
@@ -519,11 +528,26 @@ void XPerSim::lockstepLoop() {
       publishTickLocked(LockstepTick::ACT, lockstep_->startAct(now));
       continue;
     }
-    if (lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && lockstep_->wantsTime() && !paused_) {
+    const bool complete = lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && !paused_;
+    if (complete && !lockstep_->wantsTime() && now - last_tick_wall_ < idle_period_) {
+      lockstep_wake_.wait_for(lock, std::chrono::duration<double>(idle_period_ - (now - last_tick_wall_)));
+      continue;
+    }
+    if (complete) {
+      // Nobody wants time: an idle tick keeps the software's timers going (actionlib's status, ROS timers) but
+      // the world stands still, so how long the loop thinks never changes what the physics does.
+      const bool idle = !lockstep_->wantsTime();
       const core::LockstepCoordinator::Command& command = lockstep_->command();
       if (command.drives) world_->setVelocity(command.linear, command.angular);
       lockstep_->consumeRequest();
-      for (int i = 0; i < steps_per_tick_; ++i) physicsStepLocked();
+      if (idle) {
+        idle_time_ += tick_period_;
+        ++idle_ticks_;
+      } else {
+        for (int i = 0; i < steps_per_tick_; ++i) physicsStepLocked();
+      }
+      last_tick_wall_ = now;
+      last_tick_idle_ = idle;
       publishFrameLocked();
       publishSensorsLocked();
       lockstep_->startTick(lockstep_->tick() + 1, now);
@@ -557,11 +581,11 @@ void XPerSim::loop() {
       std::lock_guard<std::mutex> lock(world_mutex_);
       if (restart_pacing_) {
         wall_anchor = Clock::now();
-        sim_anchor = world_->time();
+        sim_anchor = simTimeLocked();
         restart_pacing_ = false;
       }
       stepLocked();
-      sim_time = world_->time();
+      sim_time = simTimeLocked();
     }
     if (mode_ == ClockMode::RealTime) {
       // Pace simulated time against the wall clock from the last anchor, so pauses and resets don't
@@ -587,7 +611,8 @@ void XPerSim::fillStatus(ComponentStatus& status) {
   physics.state = status.state;
   physics.state_name = status.state_name;
   physics.message = std::string(toString(mode_)) + (paused_ ? ", paused" : "") + ", t=" +
-                    core::describeNumber(world_->time()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered";
+                    core::describeNumber(simTimeLocked()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered" +
+                    (lockstep_ ? ", tick " + std::to_string(lockstep_->tick()) + " (" + std::to_string(idle_ticks_) + " idle)" : std::string());
   // A recent blow-up is worth a warning for a while, with what happened.
   if (ros::WallTime::now().toSec() - last_problem_wall_ < 5.0) {
     physics.health = ComponentStatus::HEALTH_WARN;

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "xpersif/LockstepTick.h"
+#include "xpersif/core/lockstep.h"
 
 namespace xpersif {
 
@@ -32,11 +33,10 @@ class LockstepClient {
     std::uint8_t phase = LockstepTick::ACT;
     ros::Time stamp;
     std::vector<std::string> fresh;  ///< ACT: sensors that published output stamped `stamp`
+    bool idle = false;               ///< the physics did not advance in this tick
+    double physics_time = 0;         ///< seconds the physics has run (excludes idle ticks)
   };
-  struct Command {
-    bool drives = false;
-    double linear = 0, angular = 0;
-  };
+  using Command = core::LockstepCommand;
 
   /**
    * @param nh the component's node handle (the simulator's namespace `xpersim` is resolved in it, or the

@@ -24,16 +24,18 @@
 
 namespace xpersif::core {
 
+/// What an actor's report carries besides "done": whether it drives the robot, and with what command.
+struct LockstepCommand {
+  bool drives = false;
+  double linear = 0, angular = 0;  ///< m/s, rad/s
+};
+
 class LockstepCoordinator {
  public:
   enum class Role { Sensor, Actor };
   enum class Phase { Sense, Act };
 
-  /// What an actor's report carries besides "done": whether it drives the robot, and with what command.
-  struct Command {
-    bool drives = false;
-    double linear = 0, angular = 0;  ///< m/s, rad/s
-  };
+  using Command = LockstepCommand;
 
   /// @param timeout wall seconds a participant has to report for a phase. @throws ValidationError if not > 0
   explicit LockstepCoordinator(double timeout);

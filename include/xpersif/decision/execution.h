@@ -36,7 +36,6 @@
 #include "xpersif/PushAction.h"
 #include "xpersif/TurnToAction.h"
 #include "xpersif/component/component.h"
-#include "xpersif/component/lockstep_client.h"
 
 namespace xpersif {
 
@@ -80,7 +79,6 @@ class Execution : public Component {
   double step_timeout_ = 300.0;
   ros::Time last_command_end_;  // only touched by the command thread
   std::map<std::string, std::shared_ptr<void>> clients_;  // action name -> SimpleActionClient<Action>
-  std::unique_ptr<LockstepClient> lockstep_;  // lets simulated time pass while it waits (lockstep mode)
 };
 
 }  // namespace xpersif

@@ -50,10 +50,12 @@ class RobotPoseSource {
  private:
   void onOdometry(const nav_msgs::Odometry::ConstPtr& odom);
   void onObservation(const FeatureVector::ConstPtr& features);
+  void applyFix(const FeatureVector& features);  // mutex_ held
 
   mutable std::mutex mutex_;
   mutable std::condition_variable arrived_;
   ros::Time odometry_stamp_;
+  std::optional<FeatureVector> pending_fix_;  // a fix newer than the odometry heard so far
   core::OdometryCorrection correction_;
   double linear_ = 0, angular_ = 0;
   ros::Time last_odometry_;

@@ -97,7 +97,7 @@ class Perception : public AggregateComponent {
   ros::Publisher image_pub_, info_pub_, features_pub_;
   ros::Timer timer_;
   std::unique_ptr<LockstepClient> lockstep_;
-  ros::Time next_due_;  // lockstep: when the next frame is due (simulated time)
+  double next_due_ = 0;  // lockstep: physics time at which the next frame is due
 };
 
 }  // namespace xpersif

@@ -22,6 +22,8 @@
  * sensors once, then `~tick` (SENSE), then `~tick` (ACT) once every sensor has reported; the robot's command is
  * the one a driving actor reported. A participant silent for `~participant_timeout` wall seconds (default 10)
  * is dropped with a sentence on `~events` and in `~status`. `~step` asks for ticks there (and waits for them).
+ * When nobody wants time for `~idle_period` wall seconds (default 0.05), an idle tick advances the clock but
+ * not the physics: ROS timers (actionlib's status among them) keep running while the world stands still.
  */
 #pragma once
 
@@ -66,6 +68,8 @@ class XPerSim : public Component {
   void publishDescriptionLocked();
   /// Physics steps only (no publishing); false after a blow-up (recovered and reported).
   bool physicsStepLocked();
+  /// Simulated time: the physics' own, plus the idle ticks' (lockstep). Call with world_mutex_ held.
+  double simTimeLocked() const { return world_->time() + idle_time_; }
   /// Lockstep mode: the coordinator's loop (world_mutex_ held while it works, released while it waits).
   void lockstepLoop();
   void publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh);
@@ -88,7 +92,11 @@ class XPerSim : public Component {
   std::unique_ptr<core::LockstepCoordinator> lockstep_;
   double tick_period_ = 0.02;
   int steps_per_tick_ = 10;
-  std::uint64_t ticks_done_ = 0;
+  std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
+  double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
+  double idle_period_ = 0.05;     // wall s without demand before an idle tick
+  double last_tick_wall_ = 0;
+  bool last_tick_idle_ = false;
   std::condition_variable lockstep_wake_;
 
   std::atomic<bool> running_{false};
