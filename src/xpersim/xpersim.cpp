@@ -79,17 +79,14 @@ void XPerSim::declareOperations() {
                           response.message = "paused";
                         });
 
+  // In lockstep mode a resumed clock goes on ticking as its participants ask.
   core::Contract resume = operation("resume", "std_srvs/Trigger", "advance simulated time again", {"not paused(sim)"});
-  resume.preconditions = {{"free_running(sim)", "the clock mode is realtime or fast, not lockstep"}};
   ContractChecker<Trigger::Request> resume_contract(resume);
-  resume_contract.check("free_running(sim)", [this](const Trigger::Request&) -> std::string {
-    std::lock_guard<std::mutex> lock(world_mutex_);
-    return mode_ == ClockMode::Lockstep ? "in lockstep mode time advances only through ~step" : "";
-  });
   addOperation<Trigger>(resume_contract, nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
     restart_pacing_ = true;
     paused_ = false;
     wake_.notify_all();
+    lockstep_wake_.notify_all();
     response.message = "running";
   });
 
@@ -104,7 +101,7 @@ void XPerSim::declareOperations() {
       },
       [this](const Step::Request& request, Step::Response& response) {
         std::unique_lock<std::mutex> lock(world_mutex_);
-        if (lockstep_ && running_) {
+        if (lockstep_ && running_ && !lockstep_->participants().empty()) {
           // Whole ticks, through the participants: time passes for everyone, in step.
           const std::uint64_t ticks = (request.steps + steps_per_tick_ - 1) / steps_per_tick_;
           const std::uint64_t until = ticks_done_ + lockstep_->requestedTicks() + ticks;
