@@ -338,6 +338,11 @@ std::string LoopModel::arrangeInitialScene() {
   return "";
 }
 
+std::uint32_t LoopModel::modelSamples() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return model_samples_;
+}
+
 void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(learning_timeout_);
   while (ros::WallTime::now() < deadline && !context.stopRequested()) {
@@ -541,6 +546,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     if (!chosen) {
       DesignExperiment request;
       request.request.design = goal.design;
+      request.request.scored = start.response.experiments_done + learned;  // what MOTIVATION must have heard of
       why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
       experiment = request.response.experiment;
@@ -586,6 +592,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
     DesignGoal design;
     design.request.scene = scene;
+    design.request.samples = modelSamples();
     why = call(nodeHandle(), "goal_design/design_goal", design);
     if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
     ++result.goals_tried;
@@ -601,6 +608,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       error = std::hypot(object->position.x - design.response.target_x, object->position.y - design.response.target_y);
       if (error < goal_tolerance_ || push == max_goal_pushes_) break;
       ChoosePush choose;
+      choose.request.samples = modelSamples();
       choose.request.scene = scene;
       choose.request.object = design.response.object;
       choose.request.target_x = design.response.target_x;

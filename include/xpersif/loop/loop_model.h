@@ -71,6 +71,8 @@ class LoopModel : public Supervisor {
   /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
   /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
   const core::SetupCatalogue& catalogue();
+  /// Samples of MACHINELEARNING's latest model (GOALDESIGN waits for the same model).
+  std::uint32_t modelSamples();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why, double newer_than = 0);
