@@ -128,6 +128,8 @@ void DesignOfExperiments::onMotivation(const Motivation::ConstPtr& motivation) {
   std::lock_guard<std::mutex> lock(mutex_);
   curiosity_ = std::move(curiosity);
   have_motivation_ = true;
+  motivation_scored_ = motivation->experiments;
+  motivated_.notify_all();
 }
 
 std::string DesignOfExperiments::candidates(const DesignExperiment::Request& request,
@@ -154,8 +156,14 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   std::vector<std::string> reachable;
   const std::string why = candidates(request, &reachable);
   if (!why.empty()) throw core::ValidationError(why);
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
   if (!design_) throw std::runtime_error("not configured");
+  const bool curious = (request.design.empty() ? design_name_ : request.design) == "curiosity";
+  if (curious && request.scored > 0 &&
+      !motivated_.wait_for(lock, std::chrono::seconds(10), [&] { return motivation_scored_ >= request.scored; })) {
+    ROS_WARN("%s: MOTIVATION has not spoken of %u experiments within 10 s; designing with what it said",
+             name().c_str(), request.scored);
+  }
   // A run may ask for another design than ~design (LOOPMODEL passes the run's): switch, seeded as configured.
   if (!request.design.empty() && request.design != design_name_) {
     design_ = core::makeDesign(request.design, seed_, options_);

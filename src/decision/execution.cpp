@@ -264,6 +264,7 @@ std::string Execution::getFeatures(ExecutePlan::Context& context, const std::str
       return "";
     }
     if (context.stopRequested() || ros::Time::now() > deadline) return why;
+    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }

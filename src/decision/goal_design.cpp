@@ -165,6 +165,7 @@ void GoalDesign::onModel(const LearnedModel::ConstPtr& model) {
   }
   learner_ = std::move(learner);
   model_run_ = model->run_id;
+  modelled_.notify_all();
 }
 
 void GoalDesign::onNotions(const Notions::ConstPtr& notions) {
@@ -183,8 +184,17 @@ std::string GoalDesign::whyNoModel() const {
          (model_problem_.empty() ? "" : " (" + model_problem_ + ")");
 }
 
+void GoalDesign::waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples) {
+  if (samples == 0) return;
+  if (!modelled_.wait_for(lock, std::chrono::seconds(20),
+                          [&] { return learner_ && learner_->sampleCount() >= samples; })) {
+    ROS_WARN("%s: no model of %u samples within 20 s; going on with the one it has", name().c_str(), samples);
+  }
+}
+
 void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Response& response) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
+  waitForSamples(lock, request.samples);
   std::vector<const ObjectFeatures*> movable;
   std::vector<std::string> skipped;
   for (const auto& o : request.scene.objects) {
@@ -226,7 +236,8 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
 }
 
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
+  waitForSamples(lock, request.samples);
   if (!learner_) throw std::runtime_error("no model");
   const core::ObjectFeatures object = fromMsg(*findObject(request.scene, request.object));
   const auto footprint = footprints_.find(request.object);

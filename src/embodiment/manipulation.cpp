@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "xpersif/embodiment/relocation.h"  // describePose
+#include "xpersif/embodiment/control_ticker.h"
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -139,6 +140,8 @@ void Manipulation::onConfigure() {
   max_push_distance_ = max_push_distance;
   if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
   pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
+  // Commands take part in XPERSim's lockstep clock while they run (control_ticker.h).
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), false);
 }
 
 void Manipulation::onDeactivate() { publishVelocity({}); }
@@ -146,6 +149,7 @@ void Manipulation::onDeactivate() { publishVelocity({}); }
 void Manipulation::onShutdown() {
   publishVelocity({});
   std::lock_guard<std::mutex> lock(mutex_);
+  lockstep_.reset();
   pose_source_.reset();
 }
 
@@ -224,28 +228,30 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   controller.start(plan, path.waypoints);
   bool blocked = false;
   double pushed = 0;
-  ros::Time last = ros::Time::now();
+  // The overhead camera's view after the push is part of the result: the clock waits for its frames.
+  auto stopping = [&] { return context.stopRequested(); };
+  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, true, nodeHandle().resolveName("observation"),
+                       [this](const core::Velocity2D& v) { publishVelocity(v); });
+  why = ticker.start();
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot take part in the lockstep clock: " + why);
   core::Pose2D pose;
   while (true) {
     if (context.stopRequested()) {
       controller.stop();
-      publishVelocity({});
+      ticker.finish();
       if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
       return CommandOutcome::aborted(result.message = "component stopping; robot stopped");
     }
-    why = pose_source_->pose(goal.pose_source, &pose);
+    why = ticker.sense();
+    if (why.empty()) why = pose_source_->pose(goal.pose_source, &pose);
     if (!why.empty()) {
-      publishVelocity({});
+      ticker.finish();
       return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
     }
-    const ros::Time now = ros::Time::now();
-    const double dt = std::max(1e-4, (now - last).toSec());
-    last = now;
-    const core::PushFeedback fb = controller.update(pose, dt);
-    publishVelocity(fb.command);
+    const core::PushFeedback fb = controller.update(pose, ticker.dt());
     result.robot_final = toMsg(pose.x, pose.y, pose.yaw);
     if (fb.failed) {
-      publishVelocity({});
+      ticker.finish();
       return CommandOutcome::aborted(result.message = "push failed: " + fb.reason);
     }
     if (fb.done) {
@@ -258,16 +264,18 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
     feedback.progress = fb.progress;
     feedback.pose = result.robot_final;
     context.publishFeedback(feedback);
-    context.sleepFor(ros::Duration(control_period_));
+    ticker.next(fb.command, stopping);
   }
-  publishVelocity({});
-  // Let the object come to rest, then take the first observation made after that.
-  if (!context.sleepFor(ros::Duration(settle_time_))) {
-    return CommandOutcome::aborted(result.message = "stopped while waiting for the object to settle");
+  // Let the object come to rest (the robot standing still), then take the first observation made after that.
+  const ros::Time settled = ticker.now() + ros::Duration(settle_time_);
+  while (ticker.now() < settled) {
+    if (!ticker.next({}, stopping) || !ticker.sense().empty()) {
+      ticker.finish();
+      return CommandOutcome::aborted(result.message = "stopped while waiting for the object to settle");
+    }
   }
-  const ros::Time settled = ros::Time::now();
   const ros::Time deadline = settled + ros::Duration(std::max(1.0, 3 * observation_max_age_));
-  while (ros::Time::now() < deadline) {
+  while (ticker.now() < deadline) {
     const auto seen = pose_source_->observation();
     if (seen && seen->header.stamp >= settled) {
       for (const auto& o : seen->objects) {
@@ -277,8 +285,9 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
       }
       break;
     }
-    if (!context.sleepFor(ros::Duration(control_period_))) break;
+    if (!ticker.next({}, stopping) || !ticker.sense().empty()) break;
   }
+  ticker.finish();
   result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
                    " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
                    (blocked ? " (it resisted: the robot stalled after " + core::describeNumber(pushed) + " m and backed off)" : "") +

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "xpersif/embodiment/control_ticker.h"
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -166,6 +167,8 @@ void Relocation::onConfigure() {
   obstacle_max_age_ = obstacle_max_age;
   if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
   pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
+  // Commands take part in XPERSim's lockstep clock while they run (control_ticker.h).
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), false);
 }
 
 void Relocation::onDeactivate() { publishVelocity({}); }
@@ -173,6 +176,7 @@ void Relocation::onDeactivate() { publishVelocity({}); }
 void Relocation::onShutdown() {
   publishVelocity({});
   std::lock_guard<std::mutex> lock(mutex_);
+  lockstep_.reset();
   pose_source_.reset();
 }
 
@@ -216,33 +220,34 @@ template <class Context, class Controller, class Record>
 CommandOutcome Relocation::drive(Context& context, const std::string& pose_source, Controller& controller,
                                  Record record, std::string& message) {
   const std::uint64_t stop_generation = stop_generation_;
-  ros::Time last = ros::Time::now();
+  auto stopping = [&] { return context.stopRequested() || stop_generation_ != stop_generation; };
+  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, pose_source == "observation",
+                       nodeHandle().resolveName("observation"), [this](const core::Velocity2D& v) { publishVelocity(v); });
+  std::string why = ticker.start();
+  if (!why.empty()) return CommandOutcome::aborted(message = "cannot take part in the lockstep clock: " + why);
   core::Pose2D pose;
   while (true) {
-    if (context.stopRequested() || stop_generation_ != stop_generation) {
-      publishVelocity({});
+    if (stopping()) {
+      ticker.finish();
       if (context.cancelRequested()) return CommandOutcome::preempted(message = "cancelled; robot stopped");
       return CommandOutcome::aborted(message = stop_generation_ != stop_generation ? "stopped by the stop operation"
                                                                                     : "component stopping; robot stopped");
     }
-    const std::string why = pose_source_->pose(pose_source, &pose);
+    why = ticker.sense();
+    if (why.empty()) why = pose_source_->pose(pose_source, &pose);
     if (!why.empty()) {
-      publishVelocity({});
+      ticker.finish();
       return CommandOutcome::aborted(message = "lost the robot's pose: " + why);
     }
-    const ros::Time now = ros::Time::now();
-    const double dt = std::max(1e-4, (now - last).toSec());
-    last = now;
     controller.setLimits(limits());  // set_max_velocity takes effect mid-move
-    const core::MotionFeedback fb = controller.update(pose, dt);
-    publishVelocity(fb.command);
+    const core::MotionFeedback fb = controller.update(pose, ticker.dt());
     record(pose, fb);
     if (fb.done || fb.failed) {
-      publishVelocity({});
+      ticker.finish();
       if (fb.failed) return CommandOutcome::aborted(message = fb.reason);
       return CommandOutcome::succeeded(message);
     }
-    context.sleepFor(ros::Duration(control_period_));
+    ticker.next(fb.command, stopping);
   }
 }
 

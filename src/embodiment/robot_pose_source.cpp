@@ -30,17 +30,41 @@ void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
   linear_ = odom->twist.twist.linear.x;
   angular_ = odom->twist.twist.angular.z;
   last_odometry_ = ros::Time::now();
+  odometry_stamp_ = odom->header.stamp;
+  if (pending_fix_ && odometry_stamp_ >= pending_fix_->header.stamp) applyFix(*pending_fix_);
+  arrived_.notify_all();
+}
+
+void RobotPoseSource::applyFix(const FeatureVector& features) {
+  pending_fix_.reset();
+  try {
+    correction_.addFix(features.header.stamp.toSec(), {features.robot.x, features.robot.y, features.robot.theta});
+  } catch (const std::exception& e) {
+    ROS_WARN_THROTTLE(5.0, "ignoring a robot fix: %s", e.what());
+  }
+}
+
+bool RobotPoseSource::waitFor(const ros::Time& stamp, bool observation, double timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return arrived_.wait_for(lock, std::chrono::duration<double>(timeout), [&] {
+    return odometry_stamp_ >= stamp &&
+           (!observation || (observation_ && observation_->header.stamp >= stamp && !pending_fix_));
+  });
 }
 
 void RobotPoseSource::onObservation(const FeatureVector::ConstPtr& features) {
   std::lock_guard<std::mutex> lock(mutex_);
   observation_ = features;
-  if (!features->robot_found) return;
-  try {
-    correction_.addFix(features->header.stamp.toSec(), {features->robot.x, features->robot.y, features->robot.theta});
-  } catch (const std::exception& e) {
-    ROS_WARN_THROTTLE(5.0, "ignoring a robot fix: %s", e.what());
+  if (features->robot_found) {
+    // A fix is matched with the odometry of its own instant: when that has not come yet (the two arrive on
+    // separate connections), it waits for it, so the estimate never depends on which came first.
+    if (odometry_stamp_ >= features->header.stamp) {
+      applyFix(*features);
+    } else {
+      pending_fix_ = *features;
+    }
   }
+  arrived_.notify_all();
 }
 
 std::string RobotPoseSource::checkSource(const std::string& source) {

@@ -179,6 +179,7 @@ void LoopModel::onConfigure() {
     progress_.state = "idle";
     if (!progress_pub_) progress_pub_ = pnh.advertise<RunLoopFeedback>("progress", 1, true);
   }
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), pnh, pnh.getNamespace(), false);
   model_sub_ = nodeHandle().subscribe<LearnedModel>("machine_learning/model", 1, [this](const LearnedModel::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     model_samples_ = m->samples;
@@ -245,6 +246,7 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_th
       if (why->empty()) *why = "no new observation of the scene came within 10 s";
       return false;
     }
+    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
     ros::WallDuration(0.02).sleep();
   }
   *why = "shutting down";
@@ -334,6 +336,11 @@ std::string LoopModel::arrangeInitialScene() {
     if (!why.empty()) return why;
   }
   return "";
+}
+
+std::uint32_t LoopModel::modelSamples() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return model_samples_;
 }
 
 void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
@@ -493,7 +500,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   if (arrange_at_start_ && !start.response.resumed) {
     why = arrangeInitialScene();
     if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
-    ros::Duration(0.5).sleep();  // let odometry and the overhead camera see the new scene
+    lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
   }
   std::uint32_t done = start.response.experiments_done;  // counted towards goal.experiments
   std::uint32_t learned = 0;  // successful experiments the model has seen in this run
@@ -539,6 +546,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     if (!chosen) {
       DesignExperiment request;
       request.request.design = goal.design;
+      request.request.scored = start.response.experiments_done + learned;  // what MOTIVATION must have heard of
       why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
       experiment = request.response.experiment;
@@ -584,6 +592,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
     DesignGoal design;
     design.request.scene = scene;
+    design.request.samples = modelSamples();
     why = call(nodeHandle(), "goal_design/design_goal", design);
     if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
     ++result.goals_tried;
@@ -599,6 +608,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       error = std::hypot(object->position.x - design.response.target_x, object->position.y - design.response.target_y);
       if (error < goal_tolerance_ || push == max_goal_pushes_) break;
       ChoosePush choose;
+      choose.request.samples = modelSamples();
       choose.request.scene = scene;
       choose.request.object = design.response.object;
       choose.request.target_x = design.response.target_x;

@@ -1,5 +1,6 @@
 #include "xpersif/perception/observation.h"
 
+#include <cmath>
 #include <std_msgs/UInt64MultiArray.h>
 
 namespace xpersif {
@@ -44,24 +45,44 @@ void Observation::onConfigure() {
 
 void Observation::onActivate() {
   AggregateComponent::onActivate();
-  timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), true);
+  if (!lockstep_->enabled()) {
+    timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
+    return;
+  }
+  // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
+  next_due_ = 0;
+  lockstep_->onTick([this](const LockstepClient::Tick& t) {
+    // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
+    // idle tick shows the standing world again (to whoever waits for a new frame).
+    bool published = false;
+    if (t.idle || t.physics_time >= next_due_) {
+      auto camera = camera_.camera();
+      if (camera && camera->tracker().waitForStamp(t.stamp, 10.0)) published = tick(t.stamp);
+      if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
+    }
+    lockstep_->report(t, false, published);
+  });
+  lockstep_->join();
 }
 
 void Observation::onDeactivate() {
   timer_.stop();
+  lockstep_.reset();  // leaves the clock
   AggregateComponent::onDeactivate();
 }
 
-void Observation::tick() {
+bool Observation::tick(const ros::Time& lockstep_stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  if ((now - last_wall_).toSec() < 1.0 / max_wall_rate_) return;
+  // The wall-rate cap is for free-running clocks; in lockstep every due frame is rendered.
+  if (lockstep_stamp.isZero() && (now - last_wall_).toSec() < 1.0 / max_wall_rate_) return false;
   auto camera = camera_.camera();
-  if (!camera || !extraction_.ready()) return;
+  if (!camera || !extraction_.ready()) return false;
   try {
     core::FrameTransforms world;
     sensor_msgs::ImagePtr image = camera->render(seq_ + 1, &world);
-    if (!image) return;
+    if (!image) return false;
     last_wall_ = now;
     ++seq_;
     const Eigen::Isometry3d world_from_camera = world.at(camera->model().frame);
@@ -76,9 +97,11 @@ void Observation::tick() {
     info_pub_.publish(camera->info(image->header));
     features_.set(features);
     features_pub_.publish(features);
+    return true;
   } catch (const std::exception& e) {
     reportError(std::string("observation failed: ") + e.what());
   }
+  return false;
 }
 
 }  // namespace xpersif

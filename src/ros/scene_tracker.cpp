@@ -87,7 +87,13 @@ void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
     ++frames_;
     callback = on_frame_;
   }
+  framed_.notify_all();
   if (callback) callback();
+}
+
+bool SceneTracker::waitForStamp(const ros::Time& stamp, double timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return framed_.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return latest_ >= stamp; });
 }
 
 core::FrameTransforms SceneTracker::worldTransforms() const {

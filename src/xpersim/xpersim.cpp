@@ -17,6 +17,8 @@
 #include "xpersif/IrRanges.h"
 #include "xpersif/Scene.h"
 #include "xpersif/SetPose.h"
+#include "xpersif/Lockstep.h"
+#include "xpersif/LockstepTick.h"
 #include "xpersif/Step.h"
 #include "xpersif/WheelSpeeds.h"
 #include "xpersif/component/message_checks.h"
@@ -77,17 +79,14 @@ void XPerSim::declareOperations() {
                           response.message = "paused";
                         });
 
+  // In lockstep mode a resumed clock goes on ticking as its participants ask.
   core::Contract resume = operation("resume", "std_srvs/Trigger", "advance simulated time again", {"not paused(sim)"});
-  resume.preconditions = {{"free_running(sim)", "the clock mode is realtime or fast, not lockstep"}};
   ContractChecker<Trigger::Request> resume_contract(resume);
-  resume_contract.check("free_running(sim)", [this](const Trigger::Request&) -> std::string {
-    std::lock_guard<std::mutex> lock(world_mutex_);
-    return mode_ == ClockMode::Lockstep ? "in lockstep mode time advances only through ~step" : "";
-  });
   addOperation<Trigger>(resume_contract, nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
     restart_pacing_ = true;
     paused_ = false;
     wake_.notify_all();
+    lockstep_wake_.notify_all();
     response.message = "running";
   });
 
@@ -101,17 +100,66 @@ void XPerSim::declareOperations() {
         }
       },
       [this](const Step::Request& request, Step::Response& response) {
+        std::unique_lock<std::mutex> lock(world_mutex_);
+        if (lockstep_ && running_ && !lockstep_->participants().empty()) {
+          // Whole ticks, through the participants: time passes for everyone, in step.
+          const std::uint64_t ticks = (request.steps + steps_per_tick_ - 1) / steps_per_tick_;
+          const std::uint64_t until = ticks_done_ + lockstep_->requestedTicks() + ticks;
+          lockstep_->requestTicks(ticks);
+          lockstep_wake_.notify_all();
+          while (ticks_done_ < until && running_ && ros::ok()) lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
+          response.time = simTimeLocked();
+          return;
+        }
         paused_ = true;
-        std::lock_guard<std::mutex> lock(world_mutex_);
         for (std::int64_t i = 0; i < request.steps; ++i) stepLocked();
-        response.time = world_->time();
+        response.time = simTimeLocked();
       });
+
+  core::Contract lockstep = operation("lockstep", "xpersif/Lockstep", "join or leave the lockstep clock",
+                                      {"participant(?name)"});
+  lockstep.parameters = {"?name"};
+  lockstep.preconditions = {{"lockstep(sim)", "the clock mode is lockstep"}};
+  ContractChecker<Lockstep::Request> lockstep_contract(lockstep);
+  lockstep_contract.bind([](const Lockstep::Request& r) { return core::Bindings{{"?name", r.participant}}; })
+      .check("lockstep(sim)", [this](const Lockstep::Request&) -> std::string {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        return lockstep_ ? "" : "the simulator runs in " + std::string(toString(mode_)) + " mode, not lockstep";
+      });
+  addOperation<Lockstep>(
+      lockstep_contract,
+      [](const Lockstep::Request& request) {
+        core::requireIdentifier("participant", request.participant, 128);
+        if (request.role > Lockstep::Request::ACTOR) {
+          throw core::ValidationError("role is " + std::to_string(request.role) + "; it must be SENSOR (0) or ACTOR (1)");
+        }
+      },
+      [this](const Lockstep::Request& request, Lockstep::Response& response) {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        if (request.join) {
+          lockstep_->join(request.participant, request.role == Lockstep::Request::SENSOR
+                                                   ? core::LockstepCoordinator::Role::Sensor
+                                                   : core::LockstepCoordinator::Role::Actor);
+        } else {
+          if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
+        }
+        response.tick = lockstep_->tick();
+        response.phase = lockstep_->phase() == core::LockstepCoordinator::Phase::Sense ? LockstepTick::SENSE
+                                                                                        : LockstepTick::ACT;
+        response.stamp = ros::Time(simTimeLocked());
+        response.complete = lockstep_->phaseComplete();
+        response.message = request.participant + (request.join ? " joined" : " left") + " at tick " +
+                           std::to_string(response.tick);
+        lockstep_wake_.notify_all();
+      },
+      false);
 
   addOperation<Trigger>(ContractChecker<Trigger::Request>(operation(
                             "reset", "std_srvs/Trigger", "put the world back to its initial state", {"reset(sim)"})),
                         nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
                           std::lock_guard<std::mutex> lock(world_mutex_);
                           world_->reset();
+                          idle_time_ = 0;
                           next_frame_ = next_sensors_ = 0;
                           restart_pacing_ = true;
                           publishFrameLocked();
@@ -173,6 +221,7 @@ void XPerSim::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   std::string world_file, mode = "realtime";
   double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0, max_frame_rate = 1000.0;
+  double tick_period = 0.02, participant_timeout = 10.0;
   bool start_paused = false;
   if (!pnh.getParam("world", world_file)) throw std::runtime_error("~world is not set; give the path of a world file");
   pnh.param("clock_mode", mode, mode);
@@ -181,6 +230,13 @@ void XPerSim::onConfigure() {
   pnh.param("sensor_rate", sensor_rate, sensor_rate);
   pnh.param("max_frame_rate", max_frame_rate, max_frame_rate);
   pnh.param("start_paused", start_paused, start_paused);
+  pnh.param("tick_period", tick_period, tick_period);
+  pnh.param("participant_timeout", participant_timeout, participant_timeout);
+  double idle_period = 0.05;
+  pnh.param("idle_period", idle_period, idle_period);
+  core::requireInRange("~idle_period", idle_period, 1e-3, 10.0);
+  core::requireInRange("~tick_period", tick_period, 1e-4, 1.0);
+  core::requireInRange("~participant_timeout", participant_timeout, 0.01, 3600.0);
   core::requireOneOf("~clock_mode", mode, {"realtime", "fast", "lockstep"});
   core::requireInRange("~real_time_factor", real_time_factor, 0.01, 100.0);
   core::requireInRange("~tf_rate", tf_rate, 1.0, 10000.0);
@@ -199,10 +255,17 @@ void XPerSim::onConfigure() {
   min_frame_wall_interval_ = 1.0 / max_frame_rate;
   next_frame_ = next_sensors_ = 0;
   paused_ = start_paused;
+  // Lockstep: whole physics steps per control tick; participants join again after a reconfigure.
+  steps_per_tick_ = std::max(1, static_cast<int>(std::lround(tick_period / world_->spec().physics.step)));
+  tick_period_ = steps_per_tick_ * world_->spec().physics.step;
+  idle_period_ = idle_period;
+  idle_time_ = 0;
+  lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
 
   ros::NodeHandle& nh = nodeHandle();
   if (!clock_pub_) {
-    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    // Latched: a node that starts while a lockstep clock stands still still learns what time it is.
+    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10, true);
     tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
     tf_static_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
     scene_pub_ = pnh.advertise<Scene>("scene", 1, true);
@@ -211,6 +274,9 @@ void XPerSim::onConfigure() {
     odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
     ir_pub_ = nh.advertise<IrRanges>("ir", 10);
     joints_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
+    tick_pub_ = pnh.advertise<LockstepTick>("tick", 10);
+    lockstep_done_sub_ = pnh.subscribe<LockstepDone>("lockstep_done", 100, &XPerSim::onLockstepDone, this,
+                                                     ros::TransportHints().tcpNoDelay());
     const auto hints = ros::TransportHints().tcpNoDelay();
     cmd_vel_sub_ = nh.subscribe<geometry_msgs::Twist>(
         "cmd_vel", 10,
@@ -247,7 +313,7 @@ void XPerSim::onConfigure() {
 void XPerSim::publishDescriptionLocked() {
   const core::SceneDescription& scene = world_->scene();
   Scene scene_msg = toSceneMsg(scene);
-  scene_msg.header.stamp = ros::Time(world_->time());
+  scene_msg.header.stamp = ros::Time(simTimeLocked());
   scene_pub_.publish(scene_msg);
 
   tf2_msgs::TFMessage fixed;
@@ -302,7 +368,7 @@ void XPerSim::publishDescriptionLocked() {
 }
 
 void XPerSim::publishFrameLocked() {
-  const ros::Time stamp(world_->time());
+  const ros::Time stamp(simTimeLocked());
   rosgraph_msgs::Clock clock;
   clock.clock = stamp;
   clock_pub_.publish(clock);
@@ -322,7 +388,7 @@ void XPerSim::publishFrameLocked() {
 }
 
 void XPerSim::publishSensorsLocked() {
-  const ros::Time stamp(world_->time());
+  const ros::Time stamp(simTimeLocked());
   const core::WorldSpec& spec = world_->spec();
 
   BodyPoses truth;
@@ -364,17 +430,20 @@ void XPerSim::publishSensorsLocked() {
   joints_pub_.publish(joints);
 }
 
-void XPerSim::stepLocked() {
+bool XPerSim::physicsStepLocked() {
   const core::PhysicsWorld::StepResult result = world_->step();
-  if (!result.ok) {
-    ++blow_ups_;
-    last_problem_ = result.problem;
-    last_problem_wall_ = ros::WallTime::now().toSec();
-    ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": " << result.problem);
-    events().publish(events().make(ComponentEvent::OPERATION, "physics", "recovered", result.problem));
-    return;
-  }
-  const double t = world_->time() + 1e-9;
+  if (result.ok) return true;
+  ++blow_ups_;
+  last_problem_ = result.problem;
+  last_problem_wall_ = ros::WallTime::now().toSec();
+  ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": " << result.problem);
+  events().publish(events().make(ComponentEvent::OPERATION, "physics", "recovered", result.problem));
+  return false;
+}
+
+void XPerSim::stepLocked() {
+  if (!physicsStepLocked()) return;
+  const double t = simTimeLocked() + 1e-9;
   // In fast mode frames are also limited per wall second: viewers cannot use 30k frames/s, and the
   // messages would cost more than the physics (bench/README.md).
   bool frame_allowed = true;
@@ -411,7 +480,89 @@ void XPerSim::stopThread() {
   if (thread_.joinable()) thread_.join();
 }
 
+void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh) {
+  LockstepTick tick;
+  tick.tick = lockstep_->tick();
+  tick.phase = phase;
+  tick.stamp = ros::Time(simTimeLocked());
+  tick.idle = last_tick_idle_;
+  tick.physics_time = world_->time();
+  tick.fresh = fresh;
+  tick.participants = lockstep_->participants();
+  tick_pub_.publish(tick);
+}
+
+void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (!lockstep_) return;
+  std::string why = checkVector3("cmd_vel.linear", done->cmd_vel.linear);
+  if (why.empty()) why = checkVector3("cmd_vel.angular", done->cmd_vel.angular);
+  if (why.empty()) {
+    core::LockstepCoordinator::Command command{done->drives, done->cmd_vel.linear.x, done->cmd_vel.angular.z};
+    why = lockstep_->report(done->participant, done->tick,
+                            done->phase == LockstepTick::SENSE ? core::LockstepCoordinator::Phase::Sense
+                                                               : core::LockstepCoordinator::Phase::Act,
+                            done->wants_time, done->published, command);
+  }
+  if (!why.empty()) ROS_WARN_STREAM_THROTTLE(1.0, name() << ": lockstep report ignored: " << why);
+  lockstep_wake_.notify_all();
+}
+
+void XPerSim::lockstepLoop() {
+  using Phase = core::LockstepCoordinator::Phase;
+  std::unique_lock<std::mutex> lock(world_mutex_);
+  while (running_ && ros::ok() && lockstep_) {
+    const double now = ros::WallTime::now().toSec();
+    const auto dropped = lockstep_->dropLate(now);
+    for (const auto& late : dropped) {
+      last_problem_ = "lockstep participant '" + late + "' did not report tick " + std::to_string(lockstep_->tick()) +
+                      " within " + core::describeNumber(lockstep_->timeout()) + " s; it was dropped and time goes on";
+      last_problem_wall_ = now;
+      ROS_WARN_STREAM(name() << ": " << last_problem_);
+      events().publish(events().make(ComponentEvent::OPERATION, "lockstep", "dropped", last_problem_));
+    }
+    if (lockstep_->phase() == Phase::Sense && lockstep_->phaseComplete()) {
+      publishTickLocked(LockstepTick::ACT, lockstep_->startAct(now));
+      continue;
+    }
+    const bool complete = lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && !paused_;
+    if (complete && !lockstep_->wantsTime() && now - last_tick_wall_ < idle_period_) {
+      lockstep_wake_.wait_for(lock, std::chrono::duration<double>(idle_period_ - (now - last_tick_wall_)));
+      continue;
+    }
+    if (complete) {
+      // Nobody wants time: an idle tick keeps the software's timers going (actionlib's status, ROS timers) but
+      // the world stands still, so how long the loop thinks never changes what the physics does.
+      const bool idle = !lockstep_->wantsTime();
+      const core::LockstepCoordinator::Command& command = lockstep_->command();
+      if (command.drives) world_->setVelocity(command.linear, command.angular);
+      lockstep_->consumeRequest();
+      if (idle) {
+        idle_time_ += tick_period_;
+        ++idle_ticks_;
+      } else {
+        for (int i = 0; i < steps_per_tick_; ++i) physicsStepLocked();
+      }
+      last_tick_wall_ = now;
+      last_tick_idle_ = idle;
+      publishFrameLocked();
+      publishSensorsLocked();
+      lockstep_->startTick(lockstep_->tick() + 1, now);
+      ++ticks_done_;
+      publishTickLocked(LockstepTick::SENSE, {});
+      lockstep_wake_.notify_all();  // the step operation waits for its ticks
+      continue;
+    }
+    // Reports, joins, leaves and step requests wake it; the timeout only paces the late-participant check.
+    lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+}
+
 void XPerSim::loop() {
+  if (mode_ == ClockMode::Lockstep) {
+    lockstepLoop();
+    return;
+  }
   using Clock = std::chrono::steady_clock;
   Clock::time_point wall_anchor;
   double sim_anchor = 0;
@@ -427,11 +578,11 @@ void XPerSim::loop() {
       std::lock_guard<std::mutex> lock(world_mutex_);
       if (restart_pacing_) {
         wall_anchor = Clock::now();
-        sim_anchor = world_->time();
+        sim_anchor = simTimeLocked();
         restart_pacing_ = false;
       }
       stepLocked();
-      sim_time = world_->time();
+      sim_time = simTimeLocked();
     }
     if (mode_ == ClockMode::RealTime) {
       // Pace simulated time against the wall clock from the last anchor, so pauses and resets don't
@@ -457,7 +608,8 @@ void XPerSim::fillStatus(ComponentStatus& status) {
   physics.state = status.state;
   physics.state_name = status.state_name;
   physics.message = std::string(toString(mode_)) + (paused_ ? ", paused" : "") + ", t=" +
-                    core::describeNumber(world_->time()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered";
+                    core::describeNumber(simTimeLocked()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered" +
+                    (lockstep_ ? ", tick " + std::to_string(lockstep_->tick()) + " (" + std::to_string(idle_ticks_) + " idle)" : std::string());
   // A recent blow-up is worth a warning for a while, with what happened.
   if (ros::WallTime::now().toSec() - last_problem_wall_ < 5.0) {
     physics.health = ComponentStatus::HEALTH_WARN;

@@ -24,6 +24,7 @@
  */
 #pragma once
 
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -66,6 +67,8 @@ class DesignOfExperiments : public Component {
   std::size_t designed_ = 0;
   std::map<std::string, double> curiosity_;  // region key -> curiosity, from the latest Motivation
   bool have_motivation_ = false;
+  std::uint32_t motivation_scored_ = 0;  // experiments MOTIVATION's latest message counts
+  std::condition_variable motivated_;
   FeatureVector::ConstPtr latest_features_;
   std::string features_topic_;
 

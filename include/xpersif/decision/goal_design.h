@@ -27,6 +27,7 @@
  */
 #pragma once
 
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -68,6 +69,9 @@ class GoalDesign : public Component {
   mutable std::mutex mutex_;
   std::vector<std::string> objects_;
   std::map<std::string, core::Footprint> footprints_;
+  std::condition_variable modelled_;  // a new model was loaded
+  /// Wait (bounded) until the loaded model has @p samples samples: a goal never depends on message timing.
+  void waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples);
   double min_push_ = 0, max_push_ = 0;  // the set-up's push distances, m
   double min_target_ = 0.05, max_target_ = 0.12, wall_clearance_ = 0.08, object_clearance_ = 0.06;
   std::vector<double> offsets_, distances_;

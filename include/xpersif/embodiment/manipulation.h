@@ -19,6 +19,7 @@
 #include <memory>
 #include <mutex>
 
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/PushAction.h"
 #include "xpersif/component/component.h"
 #include "xpersif/embodiment/embodiment_setup.h"
@@ -54,6 +55,7 @@ class Manipulation : public Component {
   double settle_time_ = 0.3;
   double max_push_distance_ = 0.0;  ///< set by configure, from the arena
   std::unique_ptr<RobotPoseSource> pose_source_;
+  std::unique_ptr<LockstepClient> lockstep_;
   ros::Publisher cmd_vel_pub_;
 };
 

@@ -22,6 +22,7 @@
 #include <memory>
 #include <mutex>
 
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GoToPoseAction.h"
 #include "xpersif/SetMaxVelocity.h"
 #include "xpersif/TurnToAction.h"
@@ -66,6 +67,7 @@ class Relocation : public Component {
   double obstacle_max_age_ = 5.0;
   std::atomic<std::uint64_t> stop_generation_{0};  // bumped by the stop operation
   std::unique_ptr<RobotPoseSource> pose_source_;
+  std::unique_ptr<LockstepClient> lockstep_;
   ros::Publisher cmd_vel_pub_;
 };
 

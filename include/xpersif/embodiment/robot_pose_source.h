@@ -9,6 +9,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 
+#include <condition_variable>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -41,12 +42,20 @@ class RobotPoseSource {
                                         double max_age = 0) const;
   /// Seconds (ROS time) since the last odometry message (infinity before the first).
   double odometryAge() const;
+  /// Lockstep: wait until the odometry stamped @p stamp (and, if @p observation, an observation stamped at least
+  /// @p stamp) has been taken in, so that a tick's decision never depends on which message came first. False
+  /// after @p timeout wall seconds.
+  bool waitFor(const ros::Time& stamp, bool observation, double timeout) const;
 
  private:
   void onOdometry(const nav_msgs::Odometry::ConstPtr& odom);
   void onObservation(const FeatureVector::ConstPtr& features);
+  void applyFix(const FeatureVector& features);  // mutex_ held
 
   mutable std::mutex mutex_;
+  mutable std::condition_variable arrived_;
+  ros::Time odometry_stamp_;
+  std::optional<FeatureVector> pending_fix_;  // a fix newer than the odometry heard so far
   core::OdometryCorrection correction_;
   double linear_ = 0, angular_ = 0;
   ros::Time last_odometry_;

@@ -41,6 +41,7 @@
 #include "xpersif/Motivation.h"
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/SetExperiment.h"
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/component/supervisor.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
@@ -70,6 +71,8 @@ class LoopModel : public Supervisor {
   /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
   /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
   const core::SetupCatalogue& catalogue();
+  /// Samples of MACHINELEARNING's latest model (GOALDESIGN waits for the same model).
+  std::uint32_t modelSamples();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why, double newer_than = 0);
@@ -79,6 +82,7 @@ class LoopModel : public Supervisor {
   EmbodimentSetup setup_;
   std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
   std::mutex catalogue_mutex_;
+  std::unique_ptr<LockstepClient> lockstep_;  // lets simulated time pass while it waits (lockstep mode)
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;

@@ -18,6 +18,7 @@
 
 #include <mutex>
 
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
@@ -36,7 +37,8 @@ class Observation : public AggregateComponent {
   void onDeactivate() override;
 
  private:
-  void tick();
+  /// Render, extract and publish one frame; true when it published. @p lockstep_stamp: the tick being rendered.
+  bool tick(const ros::Time& lockstep_stamp = ros::Time());
 
   CameraPart& camera_;
   FeatureExtractionPart& extraction_;
@@ -48,6 +50,8 @@ class Observation : public AggregateComponent {
   LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_, address_pub_;
   ros::Timer timer_;
+  std::unique_ptr<LockstepClient> lockstep_;
+  double next_due_ = 0;  // lockstep: physics time at which the next frame is due
 };
 
 }  // namespace xpersif

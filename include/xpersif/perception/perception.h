@@ -16,6 +16,7 @@
 
 #include <mutex>
 
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/IrRanges.h"
 #include "xpersif/ReadIr.h"
@@ -78,7 +79,8 @@ class Perception : public AggregateComponent {
 
  private:
   void onScene(const RenderedCamera& camera);
-  void tick();
+  /// Render, extract and publish one frame; true when it published. @p lockstep_stamp: the tick being rendered.
+  bool tick(const ros::Time& lockstep_stamp = ros::Time());
 
   LatestMessagePart<IrRanges>& ir_ring_;
   LatestMessagePart<nav_msgs::Odometry>& odometry_;
@@ -94,6 +96,8 @@ class Perception : public AggregateComponent {
   LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_;
   ros::Timer timer_;
+  std::unique_ptr<LockstepClient> lockstep_;
+  double next_due_ = 0;  // lockstep: physics time at which the next frame is due
 };
 
 }  // namespace xpersif

@@ -13,6 +13,7 @@
 #include <ros/ros.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <condition_variable>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -39,6 +40,9 @@ class SceneTracker {
   /// Stamp of the newest /tf frame applied (zero before the first).
   ros::Time latestStamp() const;
   std::uint64_t framesReceived() const;
+  /// Wait until a /tf frame stamped at least @p stamp has been applied (lockstep: render the tick's scene).
+  /// False after @p timeout wall seconds.
+  bool waitForStamp(const ros::Time& stamp, double timeout) const;
   /// Called (in the subscriber's callback thread) after each /tf frame has been applied.
   void onFrame(std::function<void()> callback);
 
@@ -48,6 +52,7 @@ class SceneTracker {
 
   ros::NodeHandle nh_;
   mutable std::mutex mutex_;
+  mutable std::condition_variable framed_;
   bool has_scene_ = false;
   core::SceneDescription scene_;
   core::FrameTransforms current_;  // parent_from_node of dynamic nodes

@@ -15,6 +15,15 @@
  * (latched), `~markers` (latched, frame-locked, arena and objects), `~ground_truth`, and the robot's
  * driver topics `odom`, `ir`, `joint_states`; sets `robot_description`. Subscribes `cmd_vel` and
  * `wheel_speeds`. Operations: `~pause`, `~resume`, `~step`, `~reset`, `~set_pose`, `~get_scene`.
+ *
+ * Lockstep mode (README "Lockstep"): simulated time advances one control tick (`~tick_period`, s of simulated
+ * time, default 0.02) at a time, and only when every participant (joined through `~lockstep`) has reported the
+ * tick on `~lockstep_done` and one of them wants time to go on. Each tick publishes /clock, /tf and the robot's
+ * sensors once, then `~tick` (SENSE), then `~tick` (ACT) once every sensor has reported; the robot's command is
+ * the one a driving actor reported. A participant silent for `~participant_timeout` wall seconds (default 10)
+ * is dropped with a sentence on `~events` and in `~status`. `~step` asks for ticks there (and waits for them).
+ * When nobody wants time for `~idle_period` wall seconds (default 0.05), an idle tick advances the clock but
+ * not the physics: ROS timers (actionlib's status among them) keep running while the world stands still.
  */
 #pragma once
 
@@ -27,7 +36,9 @@
 #include <string>
 #include <thread>
 
+#include "xpersif/LockstepDone.h"
 #include "xpersif/component/component.h"
+#include "xpersif/core/lockstep.h"
 #include "xpersif/core/physics_world.h"
 
 namespace xpersif {
@@ -55,6 +66,14 @@ class XPerSim : public Component {
   void publishFrameLocked();
   void publishSensorsLocked();
   void publishDescriptionLocked();
+  /// Physics steps only (no publishing); false after a blow-up (recovered and reported).
+  bool physicsStepLocked();
+  /// Simulated time: the physics' own, plus the idle ticks' (lockstep). Call with world_mutex_ held.
+  double simTimeLocked() const { return world_->time() + idle_time_; }
+  /// Lockstep mode: the coordinator's loop (world_mutex_ held while it works, released while it waits).
+  void lockstepLoop();
+  void publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh);
+  void onLockstepDone(const LockstepDone::ConstPtr& done);
 
   // World and its settings; guarded by world_mutex_.
   std::mutex world_mutex_;
@@ -69,6 +88,16 @@ class XPerSim : public Component {
   std::string last_problem_;
   double last_problem_wall_ = -1e9;
   std::uint64_t blow_ups_ = 0;
+  // Lockstep mode; guarded by world_mutex_. lockstep_wake_ wakes the coordinator and the step operation.
+  std::unique_ptr<core::LockstepCoordinator> lockstep_;
+  double tick_period_ = 0.02;
+  int steps_per_tick_ = 10;
+  std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
+  double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
+  double idle_period_ = 0.05;     // wall s without demand before an idle tick
+  double last_tick_wall_ = 0;
+  bool last_tick_idle_ = false;
+  std::condition_variable lockstep_wake_;
 
   std::atomic<bool> running_{false};
   std::atomic<bool> paused_{false};
@@ -79,8 +108,8 @@ class XPerSim : public Component {
 
   // ROS handles last (destroyed first).
   ros::Publisher clock_pub_, tf_pub_, tf_static_pub_, scene_pub_, markers_pub_, ground_truth_pub_, odom_pub_,
-      ir_pub_, joints_pub_;
-  ros::Subscriber cmd_vel_sub_, wheel_speeds_sub_;
+      ir_pub_, joints_pub_, tick_pub_;
+  ros::Subscriber cmd_vel_sub_, wheel_speeds_sub_, lockstep_done_sub_;
 };
 
 }  // namespace xpersif

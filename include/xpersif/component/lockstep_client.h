@@ -1,0 +1,87 @@
+/**
+ * @file lockstep_client.h
+ * @brief A component's side of XPERSim's lockstep clock (README "Lockstep"): join as a sensor or an actor,
+ *        hear each tick, report it done. Any component can take part. When the simulator does not run in
+ *        lockstep (its `clock_mode` parameter), enabled() is false and callers keep their timers.
+ *
+ * Actors (controllers) run a command as: join() → compute at the returned tick → reportAndWait(command) →
+ * compute at the next tick → ... → finish() (a last report that wants no more time, then leave). Sensors
+ * (cameras) join once and report each SENSE tick from onTick()'s callback. Waiting is on a condition variable
+ * woken by the tick subscriber: nothing polls.
+ */
+#pragma once
+
+#include <ros/ros.h>
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "xpersif/LockstepTick.h"
+#include "xpersif/core/lockstep.h"
+
+namespace xpersif {
+
+class LockstepClient {
+ public:
+  struct Tick {
+    std::uint64_t tick = 0;
+    std::uint8_t phase = LockstepTick::ACT;
+    ros::Time stamp;
+    std::vector<std::string> fresh;  ///< ACT: sensors that published output stamped `stamp`
+    bool idle = false;               ///< the physics did not advance in this tick
+    double physics_time = 0;         ///< seconds the physics has run (excludes idle ticks)
+  };
+  using Command = core::LockstepCommand;
+
+  /**
+   * @param nh the component's node handle (the simulator's namespace `xpersim` is resolved in it, or the
+   *        `lockstep_xpersim` parameter searched upwards from @p private_nh)
+   * @param name the participant's unique name (the component's private namespace is a good one)
+   * @param sensor true: reports in the SENSE phase; false: an actor, reports in the ACT phase
+   */
+  LockstepClient(ros::NodeHandle nh, const ros::NodeHandle& private_nh, std::string name, bool sensor);
+  ~LockstepClient();
+
+  /// Whether XPERSim runs in lockstep (read from its `clock_mode` parameter when this client was made).
+  bool enabled() const { return enabled_; }
+  const std::string& name() const { return name_; }
+
+  /// Join the clock; the current tick. @throws std::runtime_error with a sentence when the simulator refuses
+  Tick join(double timeout = 10.0);
+  /// Leave (no-op when not joined). Never throws.
+  void leave();
+  bool joined() const;
+
+  /// Actor: report @p tick done (with @p command; wanting the next tick) and wait for the next ACT tick. Empty
+  /// when @p stop becomes true or no tick comes within @p timeout wall seconds (the simulator stopped).
+  std::optional<Tick> reportAndWait(const Tick& tick, const Command& command, const std::function<bool()>& stop,
+                                    double timeout = 30.0);
+  /// Report @p tick done without waiting. @p wants_time false: this participant needs no more time.
+  void report(const Tick& tick, bool wants_time, bool published, const Command& command = {});
+  /// Let @p duration of simulated time pass: in lockstep, take part as an actor that wants time until it has
+  /// passed (time never passes on its own there); otherwise sleep on ROS time. False when @p stop says so.
+  bool sleepFor(const ros::Duration& duration, const std::function<bool()>& stop = nullptr);
+  /// Sensor: called (in the subscriber's thread) for every SENSE tick while joined; it must call report().
+  void onTick(std::function<void(const Tick&)> callback);
+
+ private:
+  void onTickMessage(const LockstepTick::ConstPtr& message);
+
+  ros::NodeHandle nh_;
+  std::string name_, xpersim_;
+  bool sensor_ = false, enabled_ = false;
+  mutable std::mutex mutex_;
+  std::condition_variable ticked_;
+  bool joined_ = false;
+  std::optional<Tick> latest_act_;  // the newest ACT tick heard
+  std::function<void(const Tick&)> on_tick_;
+  ros::Publisher done_pub_;
+  ros::Subscriber tick_sub_;  // last: destroyed first
+};
+
+}  // namespace xpersif

@@ -1,0 +1,100 @@
+/**
+ * @file lockstep.h
+ * @brief The lockstep clock's bookkeeping, ROS-free: who must finish each control tick before simulated time
+ *        may advance, and when a tick is complete. XPERSim (the coordinator) owns one; the protocol around it
+ *        is in the README ("Lockstep").
+ *
+ * A tick has two phases. SENSE: physics has advanced to the tick's time; sensing participants (cameras and
+ * the perception behind them) render and publish what is due, then report. ACT: every sensor has reported;
+ * acting participants (controllers) read the tick's sensor data, compute, and report with their command.
+ * Only then may the next tick start, and only if some participant wants time to go on (a command is running,
+ * or someone asked for simulated time): an idle loop leaves simulated time where it is, so how long the loop
+ * thinks between experiments (wall time) never changes what the physics does.
+ *
+ * A participant that does not report within the timeout (wall seconds, from the start of the phase) is
+ * dropped: the run goes on without it and the caller reports that. Not thread-safe: one owner.
+ */
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace xpersif::core {
+
+/// What an actor's report carries besides "done": whether it drives the robot, and with what command.
+struct LockstepCommand {
+  bool drives = false;
+  double linear = 0, angular = 0;  ///< m/s, rad/s
+};
+
+class LockstepCoordinator {
+ public:
+  enum class Role { Sensor, Actor };
+  enum class Phase { Sense, Act };
+
+  using Command = LockstepCommand;
+
+  /// @param timeout wall seconds a participant has to report for a phase. @throws ValidationError if not > 0
+  explicit LockstepCoordinator(double timeout);
+
+  /// A participant joins (or re-joins with another role). It owes reports from the next phase that starts; the
+  /// current phase does not wait for it. @throws ValidationError for an empty name
+  void join(const std::string& name, Role role);
+  /// A participant leaves; a phase waiting only for it completes. True when it was the last actor to drive the
+  /// robot: the caller then stops the robot (a controller that is gone commands nothing).
+  bool leave(const std::string& name);
+  bool has(const std::string& name) const { return roles_.count(name) > 0; }
+  std::vector<std::string> participants() const;
+
+  /// Start tick @p tick's SENSE phase at wall time @p now. Sensors then owe a report.
+  void startTick(std::uint64_t tick, double now);
+  /// "" when accepted, else why not (unknown participant, another tick or phase, reported twice): the caller
+  /// logs it; nothing changes. @p published (SENSE): it published output stamped with the tick's time.
+  /// @p wants_time: it needs the next tick. @p command (ACT): its command until the next tick.
+  std::string report(const std::string& name, std::uint64_t tick, Phase phase, bool wants_time, bool published,
+                     const Command& command = {});
+  /// Every participant owed a report for the current phase has given it.
+  bool phaseComplete() const { return owed_.empty(); }
+  /// After a complete SENSE phase: start ACT at wall time @p now. Returns the sensors that published output.
+  std::vector<std::string> startAct(double now);
+  /// Participants whose report for the current phase is later than the timeout at wall time @p now; they are
+  /// removed (left) and their names returned.
+  std::vector<std::string> dropLate(double now);
+  /// Names still owed for the current phase, for status and sentences.
+  std::vector<std::string> owed() const { return {owed_.begin(), owed_.end()}; }
+
+  std::uint64_t tick() const { return tick_; }
+  Phase phase() const { return phase_; }
+  /// Does someone want the next tick: a report of the current tick said so, or requestTicks() is pending.
+  bool wantsTime() const { return wants_time_ || requested_ > 0; }
+  /// Ask for @p ticks more ticks of time whether or not a participant wants them (the step operation).
+  void requestTicks(std::uint64_t ticks) { requested_ += ticks; }
+  /// Called by the coordinator when it starts a tick it was asked for.
+  void consumeRequest() {
+    if (requested_ > 0) --requested_;
+  }
+  std::uint64_t requestedTicks() const { return requested_; }
+  /// The robot's command from the current tick's ACT reports (the last driving actor's), if any drives.
+  const Command& command() const { return command_; }
+  double timeout() const { return timeout_; }
+
+ private:
+  void owe(Role role, double now);
+
+  double timeout_;
+  std::map<std::string, Role> roles_;
+  std::set<std::string> owed_;
+  std::vector<std::string> published_;
+  std::uint64_t tick_ = 0;
+  Phase phase_ = Phase::Act;  // tick 0 is complete: nothing is owed until the first tick starts
+  double phase_started_ = 0;
+  bool wants_time_ = false;
+  std::uint64_t requested_ = 0;
+  Command command_;
+  std::string driver_;  // the actor whose command the robot follows
+};
+
+}  // namespace xpersif::core

@@ -1,0 +1,57 @@
+/**
+ * @file control_ticker.h
+ * @brief The clock of RELOCATION's and MANIPULATION's control loops: a fixed period on simulated time, or, when
+ *        XPERSim runs in lockstep, its ticks (README "Lockstep"): the loop decides on the odometry (and, when it
+ *        steers by the overhead camera, the observation) stamped with the tick, and its command goes to the
+ *        simulator with its report, so the same inputs give the same trajectory whatever the machine's load.
+ */
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "xpersif/component/lockstep_client.h"
+#include "xpersif/core/motion.h"
+#include "xpersif/embodiment/robot_pose_source.h"
+
+namespace xpersif {
+
+class ControlTicker {
+ public:
+  /**
+   * @param lockstep the component's lockstep client (an actor), or nullptr
+   * @param observation_participant the lockstep name of the camera component whose output this loop uses
+   * @param publish sends a velocity on the robot's cmd_vel (not in lockstep: the command goes with the report)
+   */
+  ControlTicker(LockstepClient* lockstep, const RobotPoseSource& source, double period, bool uses_observation,
+                std::string observation_participant, std::function<void(const core::Velocity2D&)> publish);
+  ~ControlTicker();
+
+  /// Begin: join the lockstep clock if there is one. "" or why not.
+  std::string start();
+  /// Wait for the current instant's sensor data (lockstep). "" or why they did not come.
+  std::string sense();
+  /// Seconds of simulated time since the previous instant (the period at the first).
+  double dt() const { return dt_; }
+  ros::Time now() const;
+  /// Command @p velocity until the next instant and wait for it; false when @p stop says so or the clock
+  /// stopped. Then call sense() again.
+  bool next(const core::Velocity2D& velocity, const std::function<bool()>& stop);
+  /// Stop the robot and leave the clock (also done by the destructor).
+  void finish();
+
+ private:
+  LockstepClient* lockstep_;
+  const RobotPoseSource& source_;
+  double period_, dt_;
+  bool uses_observation_;
+  std::string observation_participant_;
+  std::function<void(const core::Velocity2D&)> publish_;
+  std::optional<LockstepClient::Tick> tick_;
+  ros::Time last_;
+  bool finished_ = false;
+};
+
+}  // namespace xpersif

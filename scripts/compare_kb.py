@@ -1,0 +1,63 @@
+#!/usr/bin/python3
+"""Compare two knowledge bases field by field: every stored field of every experiment, the goals and the
+notions, except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
+which include the idle time of a lockstep clock). Exit 0 when equal, 1 with the differences listed.
+
+usage: compare_kb.py A.db B.db [--keep-times]"""
+import json
+import sqlite3
+import sys
+
+TIME_COLUMNS = {"created", "started", "finished", "stamp", "updated", "time", "wall_time"}
+
+
+def rows(path, table, keep_times):
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    cur = db.execute(f"SELECT * FROM {table} ORDER BY id")
+    names = [d[0] for d in cur.description]
+    out = []
+    for row in cur:
+        record = {}
+        for name, value in zip(names, row):
+            if name == "id" or (not keep_times and name in TIME_COLUMNS):
+                continue
+            if name.endswith("_json") and value:
+                value = json.loads(value)
+                if not keep_times:
+                    value.pop("stamp", None)
+            record[name] = value
+        out.append(record)
+    return out
+
+
+def tables(path):
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    return {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+
+
+def main():
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    keep_times = "--keep-times" in sys.argv
+    if len(args) != 2:
+        print(__doc__, file=sys.stderr)
+        return 2
+    a, b = args
+    differences = 0
+    compared = 0
+    for table in sorted(tables(a) & tables(b) & {"experiments", "goals", "notions"}):
+        ra, rb = rows(a, table, keep_times), rows(b, table, keep_times)
+        if len(ra) != len(rb):
+            print(f"{table}: {len(ra)} rows in {a}, {len(rb)} in {b}")
+            differences += 1
+        for i, (x, y) in enumerate(zip(ra, rb)):
+            compared += 1
+            for key in sorted(set(x) | set(y)):
+                if x.get(key) != y.get(key):
+                    differences += 1
+                    print(f"{table} row {i + 1} field {key}: {str(x.get(key))[:200]} != {str(y.get(key))[:200]}")
+    print(f"compared {compared} rows: {differences} differences")
+    return 1 if differences else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

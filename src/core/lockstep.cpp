@@ -1,0 +1,81 @@
+#include "xpersif/core/lockstep.h"
+
+#include "xpersif/core/validation.h"
+
+namespace xpersif::core {
+
+LockstepCoordinator::LockstepCoordinator(double timeout) : timeout_(timeout) {
+  requirePositive("lockstep timeout", timeout);
+}
+
+void LockstepCoordinator::join(const std::string& name, Role role) {
+  if (name.empty()) throw ValidationError("a lockstep participant needs a name");
+  roles_[name] = role;
+}
+
+bool LockstepCoordinator::leave(const std::string& name) {
+  roles_.erase(name);
+  owed_.erase(name);
+  if (driver_ != name) return false;
+  driver_.clear();
+  return true;
+}
+
+std::vector<std::string> LockstepCoordinator::participants() const {
+  std::vector<std::string> out;
+  for (const auto& [name, role] : roles_) out.push_back(name);
+  return out;
+}
+
+void LockstepCoordinator::owe(Role role, double now) {
+  owed_.clear();
+  for (const auto& [name, r] : roles_) {
+    if (r == role) owed_.insert(name);
+  }
+  phase_started_ = now;
+}
+
+void LockstepCoordinator::startTick(std::uint64_t tick, double now) {
+  tick_ = tick;
+  phase_ = Phase::Sense;
+  wants_time_ = false;
+  published_.clear();
+  command_ = {};
+  owe(Role::Sensor, now);
+}
+
+std::vector<std::string> LockstepCoordinator::startAct(double now) {
+  phase_ = Phase::Act;
+  owe(Role::Actor, now);
+  return published_;
+}
+
+std::string LockstepCoordinator::report(const std::string& name, std::uint64_t tick, Phase phase, bool wants_time,
+                                        bool published, const Command& command) {
+  if (!roles_.count(name)) return "'" + name + "' reported tick " + std::to_string(tick) + " but has not joined";
+  if (tick != tick_ || phase != phase_) {
+    return "'" + name + "' reported tick " + std::to_string(tick) + (phase == Phase::Sense ? " (sense)" : " (act)") +
+           " while tick " + std::to_string(tick_) + (phase_ == Phase::Sense ? " (sense)" : " (act)") + " runs";
+  }
+  // A participant may always say it wants time (a controller starting between ticks), even when not owed.
+  wants_time_ = wants_time_ || wants_time;
+  if (!owed_.erase(name)) return "";
+  if (phase == Phase::Sense && published) published_.push_back(name);
+  if (phase == Phase::Act && command.drives) {
+    command_ = command;
+    driver_ = name;
+  }
+  return "";
+}
+
+std::vector<std::string> LockstepCoordinator::dropLate(double now) {
+  std::vector<std::string> late;
+  if (owed_.empty() || now - phase_started_ < timeout_) return late;
+  late.assign(owed_.begin(), owed_.end());
+  for (const auto& name : late) {
+    if (leave(name)) command_ = Command{true, 0.0, 0.0};  // a dropped controller commands nothing
+  }
+  return late;
+}
+
+}  // namespace xpersif::core

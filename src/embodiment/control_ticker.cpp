@@ -1,0 +1,76 @@
+#include "xpersif/embodiment/control_ticker.h"
+
+#include <algorithm>
+#include <thread>
+
+namespace xpersif {
+
+ControlTicker::ControlTicker(LockstepClient* lockstep, const RobotPoseSource& source, double period,
+                             bool uses_observation, std::string observation_participant,
+                             std::function<void(const core::Velocity2D&)> publish)
+    : lockstep_(lockstep && lockstep->enabled() ? lockstep : nullptr),
+      source_(source),
+      period_(period),
+      dt_(period),
+      uses_observation_(uses_observation),
+      observation_participant_(std::move(observation_participant)),
+      publish_(std::move(publish)) {}
+
+ControlTicker::~ControlTicker() { finish(); }
+
+std::string ControlTicker::start() {
+  last_ = ros::Time::now();
+  if (!lockstep_) return "";
+  try {
+    tick_ = lockstep_->join();
+    last_ = tick_->stamp;
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+ros::Time ControlTicker::now() const { return tick_ ? tick_->stamp : ros::Time::now(); }
+
+std::string ControlTicker::sense() {
+  if (!tick_) return "";
+  // The overhead camera renders only at some ticks: wait for its output when this tick has it.
+  const bool fresh_observation =
+      uses_observation_ && std::find(tick_->fresh.begin(), tick_->fresh.end(), observation_participant_) != tick_->fresh.end();
+  if (!source_.waitFor(tick_->stamp, fresh_observation, 10.0)) {
+    return "the robot's sensor data of tick " + std::to_string(tick_->tick) + " did not arrive within 10 s";
+  }
+  return "";
+}
+
+bool ControlTicker::next(const core::Velocity2D& velocity, const std::function<bool()>& stop) {
+  if (!lockstep_) {
+    publish_(velocity);
+    const ros::Time end = last_ + ros::Duration(period_);
+    while (ros::Time::now() < end) {
+      if (stop()) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const ros::Time now = ros::Time::now();
+    dt_ = std::max(1e-4, (now - last_).toSec());
+    last_ = now;
+    return !stop();
+  }
+  auto next = lockstep_->reportAndWait(*tick_, {true, velocity.linear, velocity.angular}, stop);
+  if (!next) return false;
+  dt_ = std::max(1e-4, (next->stamp - tick_->stamp).toSec());
+  tick_ = next;
+  return true;
+}
+
+void ControlTicker::finish() {
+  if (finished_) return;
+  finished_ = true;
+  publish_({});
+  if (lockstep_ && tick_) {
+    lockstep_->report(*tick_, false, false, {true, 0.0, 0.0});  // stopped from the next tick on
+    lockstep_->leave();
+  }
+}
+
+}  // namespace xpersif

@@ -1,0 +1,91 @@
+// The lockstep clock's bookkeeping (core/lockstep.h): who owes a report, when a tick is complete, when time may
+// go on, and what happens to a participant that does not answer.
+#include <gtest/gtest.h>
+
+#include "xpersif/core/lockstep.h"
+#include "xpersif/core/validation.h"
+
+using xpersif::core::LockstepCoordinator;
+using Phase = LockstepCoordinator::Phase;
+using Role = LockstepCoordinator::Role;
+
+TEST(Lockstep, SensorsThenActorsThenTimeGoesOnOnlyIfWanted) {
+  LockstepCoordinator c(5.0);
+  c.join("camera", Role::Sensor);
+  c.join("controller", Role::Actor);
+  EXPECT_TRUE(c.phaseComplete());  // tick 0: nothing owed yet
+  c.startTick(1, 0.0);
+  EXPECT_EQ(c.phase(), Phase::Sense);
+  EXPECT_EQ(c.owed(), std::vector<std::string>{"camera"});
+  EXPECT_EQ(c.report("controller", 1, Phase::Act, true, false), "'controller' reported tick 1 (act) while tick 1 (sense) runs");
+  EXPECT_EQ(c.report("camera", 1, Phase::Sense, false, true), "");
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_EQ(c.startAct(0.0), std::vector<std::string>{"camera"});  // the camera published at this tick
+  EXPECT_EQ(c.owed(), std::vector<std::string>{"controller"});
+  EXPECT_FALSE(c.wantsTime());
+  EXPECT_EQ(c.report("controller", 1, Phase::Act, true, false, {true, 0.1, -0.5}), "");
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.wantsTime());
+  EXPECT_TRUE(c.command().drives);
+  EXPECT_DOUBLE_EQ(c.command().angular, -0.5);
+  // The next tick: nobody wants time any more, so it stays where it is.
+  c.startTick(2, 0.0);
+  c.report("camera", 2, Phase::Sense, false, false);
+  EXPECT_TRUE(c.startAct(0.0).empty());
+  c.report("controller", 2, Phase::Act, false, false, {true, 0, 0});
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_FALSE(c.wantsTime());
+  c.requestTicks(2);  // the step operation
+  EXPECT_TRUE(c.wantsTime());
+  c.consumeRequest();
+  c.consumeRequest();
+  EXPECT_FALSE(c.wantsTime());
+}
+
+TEST(Lockstep, ReportsThatDoNotFitChangeNothing) {
+  LockstepCoordinator c(5.0);
+  c.join("a", Role::Actor);
+  c.startTick(3, 0.0);
+  c.startAct(0.0);
+  EXPECT_NE(c.report("stranger", 3, Phase::Act, true, false), "");
+  EXPECT_NE(c.report("a", 2, Phase::Act, true, false), "");  // an old tick
+  EXPECT_FALSE(c.phaseComplete());
+  EXPECT_FALSE(c.wantsTime());
+  EXPECT_EQ(c.report("a", 3, Phase::Act, false, false), "");
+  EXPECT_EQ(c.report("a", 3, Phase::Act, true, false), "");  // twice: it may still ask for time
+  EXPECT_TRUE(c.wantsTime());
+  EXPECT_THROW(c.join("", Role::Actor), xpersif::core::ValidationError);
+  EXPECT_THROW(LockstepCoordinator(0.0), xpersif::core::ValidationError);
+}
+
+TEST(Lockstep, AParticipantThatHangsIsDroppedAfterTheTimeoutAndTheRobotStops) {
+  LockstepCoordinator c(2.0);
+  c.join("camera", Role::Sensor);
+  c.join("controller", Role::Actor);
+  c.startTick(1, 10.0);
+  c.report("camera", 1, Phase::Sense, false, false);
+  c.startAct(10.0);
+  c.report("controller", 1, Phase::Act, true, false, {true, 0.2, 0});
+  c.startTick(2, 11.0);
+  c.report("camera", 2, Phase::Sense, false, false);
+  c.startAct(11.0);
+  EXPECT_TRUE(c.dropLate(12.9).empty());  // within its 2 s
+  EXPECT_EQ(c.dropLate(13.1), std::vector<std::string>{"controller"});
+  EXPECT_TRUE(c.phaseComplete());  // the run goes on without it
+  EXPECT_FALSE(c.has("controller"));
+  EXPECT_TRUE(c.command().drives);  // a dropped controller commands nothing: the robot stops
+  EXPECT_EQ(c.command().linear, 0.0);
+}
+
+TEST(Lockstep, ALeavingDriverStopsTheRobotAndFreesThePhase) {
+  LockstepCoordinator c(5.0);
+  c.join("controller", Role::Actor);
+  c.join("other", Role::Actor);
+  c.startTick(1, 0.0);
+  c.startAct(0.0);
+  c.report("controller", 1, Phase::Act, true, false, {true, 0.1, 0});
+  EXPECT_FALSE(c.phaseComplete());
+  EXPECT_FALSE(c.leave("other"));  // never drove
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.leave("controller"));
+}
