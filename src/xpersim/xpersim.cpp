@@ -525,7 +525,9 @@ void XPerSim::lockstepLoop() {
       publishTickLocked(LockstepTick::ACT, lockstep_->startAct(now));
       continue;
     }
-    const bool complete = lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && !paused_;
+    // Idle ticks are for participants' timers: with nobody taking part, time moves only through ~step.
+    const bool complete = lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && !paused_ &&
+                          (lockstep_->wantsTime() || !lockstep_->participants().empty());
     if (complete && !lockstep_->wantsTime() && now - last_tick_wall_ < idle_period_) {
       lockstep_wake_.wait_for(lock, std::chrono::duration<double>(idle_period_ - (now - last_tick_wall_)));
       continue;
