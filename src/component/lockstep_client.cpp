@@ -67,13 +67,15 @@ void LockstepClient::leave() {
   ros::service::call(xpersim_ + "/lockstep", call);  // best effort: a gone simulator has no participants
 }
 
-void LockstepClient::report(const Tick& tick, bool wants_time, bool published, const Command& command) {
+void LockstepClient::report(const Tick& tick, bool wants_time, bool published, const Command& command,
+                            double next_due) {
   LockstepDone done;
   done.participant = name_;
   done.tick = tick.tick;
   done.phase = tick.phase;
   done.wants_time = wants_time;
   done.published = published;
+  done.next_due = next_due;
   done.drives = command.drives;
   done.cmd_vel.linear.x = command.linear;
   done.cmd_vel.angular.z = command.angular;

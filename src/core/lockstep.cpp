@@ -1,5 +1,7 @@
 #include "xpersif/core/lockstep.h"
 
+#include <iterator>
+
 #include "xpersif/core/validation.h"
 
 namespace xpersif::core {
@@ -8,13 +10,18 @@ LockstepCoordinator::LockstepCoordinator(double timeout) : timeout_(timeout) {
   requirePositive("lockstep timeout", timeout);
 }
 
-void LockstepCoordinator::join(const std::string& name, Role role) {
+void LockstepCoordinator::join(const std::string& name, Role role, double now) {
   if (name.empty()) throw ValidationError("a lockstep participant needs a name");
   roles_[name] = role;
+  if (role == Role::Actor && phase_ == Phase::Act) {
+    if (owed_.empty()) phase_started_ = now;  // its time to answer starts now
+    owed_.insert(name);
+  }
 }
 
 bool LockstepCoordinator::leave(const std::string& name) {
   roles_.erase(name);
+  next_due_.erase(name);
   owed_.erase(name);
   if (driver_ != name) return false;
   driver_.clear();
@@ -35,13 +42,18 @@ void LockstepCoordinator::owe(Role role, double now) {
   phase_started_ = now;
 }
 
-void LockstepCoordinator::startTick(std::uint64_t tick, double now) {
+void LockstepCoordinator::startTick(std::uint64_t tick, double now, double physics_time, bool idle) {
   tick_ = tick;
   phase_ = Phase::Sense;
   wants_time_ = false;
   published_.clear();
   command_ = {};
   owe(Role::Sensor, now);
+  if (idle) return;
+  for (auto it = owed_.begin(); it != owed_.end();) {
+    const auto due = next_due_.find(*it);
+    it = due != next_due_.end() && due->second > physics_time + 1e-9 ? owed_.erase(it) : std::next(it);
+  }
 }
 
 std::vector<std::string> LockstepCoordinator::startAct(double now) {
@@ -51,7 +63,7 @@ std::vector<std::string> LockstepCoordinator::startAct(double now) {
 }
 
 std::string LockstepCoordinator::report(const std::string& name, std::uint64_t tick, Phase phase, bool wants_time,
-                                        bool published, const Command& command) {
+                                        bool published, const Command& command, double next_due) {
   if (!roles_.count(name)) return "'" + name + "' reported tick " + std::to_string(tick) + " but has not joined";
   if (tick != tick_ || phase != phase_) {
     return "'" + name + "' reported tick " + std::to_string(tick) + (phase == Phase::Sense ? " (sense)" : " (act)") +
@@ -61,6 +73,7 @@ std::string LockstepCoordinator::report(const std::string& name, std::uint64_t t
   wants_time_ = wants_time_ || wants_time;
   if (!owed_.erase(name)) return "";
   if (phase == Phase::Sense && published) published_.push_back(name);
+  if (phase == Phase::Sense) next_due_[name] = next_due;
   if (phase == Phase::Act && command.drives) {
     command_ = command;
     driver_ = name;

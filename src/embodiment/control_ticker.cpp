@@ -43,6 +43,10 @@ std::string ControlTicker::sense() {
   return "";
 }
 
+bool ControlTicker::freshObservation() const {
+  return tick_ && std::find(tick_->fresh.begin(), tick_->fresh.end(), observation_participant_) != tick_->fresh.end();
+}
+
 bool ControlTicker::next(const core::Velocity2D& velocity, const std::function<bool()>& stop) {
   if (!lockstep_) {
     publish_(velocity);

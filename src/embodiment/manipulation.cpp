@@ -277,7 +277,8 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   const ros::Time deadline = settled + ros::Duration(std::max(1.0, 3 * observation_max_age_));
   while (ticker.now() < deadline) {
     const auto seen = pose_source_->observation();
-    if (seen && seen->header.stamp >= settled) {
+    // In lockstep, the camera's next frame (frames follow the physics' own time, stamps include idle time).
+    if (seen && (ticker.lockstep() ? ticker.freshObservation() : seen->header.stamp >= settled)) {
       for (const auto& o : seen->objects) {
         if (o.name != goal.object) continue;
         result.object_after = toMsg(o.position.x, o.position.y, o.yaw);

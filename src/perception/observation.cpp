@@ -55,13 +55,13 @@ void Observation::onActivate() {
   lockstep_->onTick([this](const LockstepClient::Tick& t) {
     // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
     // idle tick shows the standing world again (to whoever waits for a new frame).
+    // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
+    if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
     bool published = false;
-    if (t.idle || t.physics_time >= next_due_) {
-      auto camera = camera_.camera();
-      if (camera && camera->tracker().waitForStamp(t.stamp, 10.0)) published = tick(t.stamp);
-      if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
-    }
-    lockstep_->report(t, false, published);
+    auto camera = camera_.camera();
+    if (camera && camera->tracker().waitForStamp(t.stamp, 10.0)) published = tick(t.stamp);
+    if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
+    lockstep_->report(t, false, published, {}, next_due_);
   });
   lockstep_->join();
 }

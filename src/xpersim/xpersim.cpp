@@ -139,7 +139,8 @@ void XPerSim::declareOperations() {
         if (request.join) {
           lockstep_->join(request.participant, request.role == Lockstep::Request::SENSOR
                                                    ? core::LockstepCoordinator::Role::Sensor
-                                                   : core::LockstepCoordinator::Role::Actor);
+                                                   : core::LockstepCoordinator::Role::Actor,
+                         ros::WallTime::now().toSec());
         } else {
           if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
         }
@@ -502,7 +503,7 @@ void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
     why = lockstep_->report(done->participant, done->tick,
                             done->phase == LockstepTick::SENSE ? core::LockstepCoordinator::Phase::Sense
                                                                : core::LockstepCoordinator::Phase::Act,
-                            done->wants_time, done->published, command);
+                            done->wants_time, done->published, command, done->next_due);
   }
   if (!why.empty()) ROS_WARN_STREAM_THROTTLE(1.0, name() << ": lockstep report ignored: " << why);
   lockstep_wake_.notify_all();
@@ -549,7 +550,7 @@ void XPerSim::lockstepLoop() {
       last_tick_idle_ = idle;
       publishFrameLocked();
       publishSensorsLocked();
-      lockstep_->startTick(lockstep_->tick() + 1, now);
+      lockstep_->startTick(lockstep_->tick() + 1, now, world_->time(), idle);
       ++ticks_done_;
       publishTickLocked(LockstepTick::SENSE, {});
       lockstep_wake_.notify_all();  // the step operation waits for its ticks

@@ -13,7 +13,9 @@ TEST(Lockstep, SensorsThenActorsThenTimeGoesOnOnlyIfWanted) {
   LockstepCoordinator c(5.0);
   c.join("camera", Role::Sensor);
   c.join("controller", Role::Actor);
-  EXPECT_TRUE(c.phaseComplete());  // tick 0: nothing owed yet
+  EXPECT_FALSE(c.phaseComplete());  // an actor joining between ticks is waited for before any tick
+  EXPECT_EQ(c.report("controller", 0, Phase::Act, false, false), "");
+  EXPECT_TRUE(c.phaseComplete());
   c.startTick(1, 0.0);
   EXPECT_EQ(c.phase(), Phase::Sense);
   EXPECT_EQ(c.owed(), std::vector<std::string>{"camera"});
@@ -75,6 +77,20 @@ TEST(Lockstep, AParticipantThatHangsIsDroppedAfterTheTimeoutAndTheRobotStops) {
   EXPECT_FALSE(c.has("controller"));
   EXPECT_TRUE(c.command().drives);  // a dropped controller commands nothing: the robot stops
   EXPECT_EQ(c.command().linear, 0.0);
+}
+
+TEST(Lockstep, AnActorJoiningBetweenTicksIsWaitedForBeforeAnyTick) {
+  LockstepCoordinator c(5.0);
+  c.join("camera", Role::Sensor);
+  c.startTick(1, 0.0);
+  c.report("camera", 1, Phase::Sense, false, true);
+  c.startAct(0.0);
+  EXPECT_TRUE(c.phaseComplete());  // idle: an idle tick could start now
+  c.join("controller", Role::Actor, 1.0);
+  EXPECT_FALSE(c.phaseComplete()) << "its first command must not miss the tick it joined at";
+  EXPECT_EQ(c.report("controller", 1, Phase::Act, true, false, {true, 0.1, 0}), "");
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.wantsTime());
 }
 
 TEST(Lockstep, ALeavingDriverStopsTheRobotAndFreesThePhase) {

@@ -62,7 +62,7 @@ class LockstepClient {
   std::optional<Tick> reportAndWait(const Tick& tick, const Command& command, const std::function<bool()>& stop,
                                     double timeout = 30.0);
   /// Report @p tick done without waiting. @p wants_time false: this participant needs no more time.
-  void report(const Tick& tick, bool wants_time, bool published, const Command& command = {});
+  void report(const Tick& tick, bool wants_time, bool published, const Command& command = {}, double next_due = 0);
   /// Let @p duration of simulated time pass: in lockstep, take part as an actor that wants time until it has
   /// passed (time never passes on its own there); otherwise sleep on ROS time. False when @p stop says so.
   bool sleepFor(const ros::Duration& duration, const std::function<bool()>& stop = nullptr);

@@ -40,22 +40,24 @@ class LockstepCoordinator {
   /// @param timeout wall seconds a participant has to report for a phase. @throws ValidationError if not > 0
   explicit LockstepCoordinator(double timeout);
 
-  /// A participant joins (or re-joins with another role). It owes reports from the next phase that starts; the
-  /// current phase does not wait for it. @throws ValidationError for an empty name
-  void join(const std::string& name, Role role);
+  /// A participant joins (or re-joins with another role) at wall time @p now. An actor joining in an ACT phase
+  /// owes that phase's report at once (so no tick, not even an idle one, starts before its first command); a
+  /// sensor owes reports from the next tick. @throws ValidationError for an empty name
+  void join(const std::string& name, Role role, double now = 0);
   /// A participant leaves; a phase waiting only for it completes. True when it was the last actor to drive the
   /// robot: the caller then stops the robot (a controller that is gone commands nothing).
   bool leave(const std::string& name);
   bool has(const std::string& name) const { return roles_.count(name) > 0; }
   std::vector<std::string> participants() const;
 
-  /// Start tick @p tick's SENSE phase at wall time @p now. Sensors then owe a report.
-  void startTick(std::uint64_t tick, double now);
+  /// Start tick @p tick's SENSE phase at wall time @p now. The sensors whose next frame is due by
+  /// @p physics_time (all of them in an @p idle tick) then owe a report; the others are not waited for.
+  void startTick(std::uint64_t tick, double now, double physics_time = 0, bool idle = true);
   /// "" when accepted, else why not (unknown participant, another tick or phase, reported twice): the caller
   /// logs it; nothing changes. @p published (SENSE): it published output stamped with the tick's time.
   /// @p wants_time: it needs the next tick. @p command (ACT): its command until the next tick.
   std::string report(const std::string& name, std::uint64_t tick, Phase phase, bool wants_time, bool published,
-                     const Command& command = {});
+                     const Command& command = {}, double next_due = 0);
   /// Every participant owed a report for the current phase has given it.
   bool phaseComplete() const { return owed_.empty(); }
   /// After a complete SENSE phase: start ACT at wall time @p now. Returns the sensors that published output.
@@ -86,6 +88,7 @@ class LockstepCoordinator {
 
   double timeout_;
   std::map<std::string, Role> roles_;
+  std::map<std::string, double> next_due_;  // sensors: physics time of their next frame
   std::set<std::string> owed_;
   std::vector<std::string> published_;
   std::uint64_t tick_ = 0;

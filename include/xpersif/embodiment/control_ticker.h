@@ -33,6 +33,9 @@ class ControlTicker {
   std::string start();
   /// Wait for the current instant's sensor data (lockstep). "" or why they did not come.
   std::string sense();
+  /// Lockstep: the camera published a frame at this tick (free-running clocks: always false).
+  bool freshObservation() const;
+  bool lockstep() const { return lockstep_ != nullptr; }
   /// Seconds of simulated time since the previous instant (the period at the first).
   double dt() const { return dt_; }
   ros::Time now() const;
