@@ -38,10 +38,15 @@ core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::No
     throw std::runtime_error("no scene: XPERSim's " + service + " did not appear within " +
                              core::describeNumber(timeout) + " s; the objects and the arena are read from it");
   }
+  // The simulator offers the operation before it has loaded its world: ask again until it has one.
   GetScene call;
-  if (!ros::service::call(service, call) || !call.response.success) {
-    throw std::runtime_error("no scene from " + service + ": " +
-                             (call.response.message.empty() ? std::string("the call failed") : call.response.message));
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (!ros::service::call(service, call) || !call.response.success) {
+    if (ros::WallTime::now() > until || !ros::ok()) {
+      throw std::runtime_error("no scene from " + service + " within " + core::describeNumber(timeout) + " s: " +
+                               (call.response.message.empty() ? std::string("the call failed") : call.response.message));
+    }
+    ros::WallDuration(0.1).sleep();
   }
   return restricted(core::SetupCatalogue::fromScene(fromSceneMsg(call.response.scene)), private_nh);
 }
