@@ -109,7 +109,8 @@ void MotivationComponent::onConfigure() {
     run_id_ = 0;
     scored_ = 0;
     last_ = core::Surprise();
-    if (!motivation_pub_) motivation_pub_ = pnh.advertise<Motivation>("motivation", 1, true);
+    // One message per experiment (DESIGNOFEXPERIMENTS and recorders count on each): no dropping under load.
+    if (!motivation_pub_) motivation_pub_ = pnh.advertise<Motivation>("motivation", 100, true);
   }
   std::lock_guard<std::mutex> lock(mutex_);
   AggregateComponent::onConfigure();
