@@ -1,5 +1,6 @@
 #include "xpersif/perception/observation.h"
 
+#include <cmath>
 #include <std_msgs/UInt64MultiArray.h>
 
 namespace xpersif {
@@ -44,11 +45,30 @@ void Observation::onConfigure() {
 
 void Observation::onActivate() {
   AggregateComponent::onActivate();
-  clock_.start(nodeHandle(), privateNodeHandle(), rate_, camera_, [this](const ros::Time& stamp) { return tick(stamp); });
+  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), true);
+  if (!lockstep_->enabled()) {
+    timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
+    return;
+  }
+  // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
+  next_due_ = 0;
+  lockstep_->onTick([this](const LockstepClient::Tick& t) {
+    // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
+    // idle tick shows the standing world again (to whoever waits for a new frame).
+    // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
+    if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
+    bool published = false;
+    auto camera = camera_.camera();
+    if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = tick(t.stamp);  // well within the clock's patience
+    if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
+    lockstep_->report(t, false, published, {}, next_due_);
+  });
+  lockstep_->join();
 }
 
 void Observation::onDeactivate() {
-  clock_.stop();
+  timer_.stop();
+  lockstep_.reset();  // leaves the clock
   AggregateComponent::onDeactivate();
 }
 

@@ -18,9 +18,9 @@
 
 #include <mutex>
 
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/component/aggregate.h"
-#include "xpersif/perception/camera_clock.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
 #include "xpersif/perception/latest_features.h"
@@ -49,7 +49,9 @@ class Observation : public AggregateComponent {
   ros::WallTime last_wall_;
   LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_, address_pub_;
-  CameraClock clock_;  // a timer, or XPERSim's lockstep ticks
+  ros::Timer timer_;
+  std::unique_ptr<LockstepClient> lockstep_;
+  double next_due_ = 0;  // lockstep: physics time at which the next frame is due
 };
 
 }  // namespace xpersif
