@@ -42,7 +42,7 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
     : Component(std::move(nh), std::move(private_nh), "xpersif/KnowledgeBaseNodelet") {
   // ---- start_run -------------------------------------------------------------------------------------
   core::Contract start = operation("start_run", "xpersif/StartRun",
-                                   "start a run (or resume the latest one still running); it becomes the current run");
+                                   "start a run (or resume the latest unfinished run of that name); it becomes the current run");
   start.parameters = {"?name"};
   start.effects = {"running(current_run)"};
   ContractChecker<StartRun::Request> start_contract(start);
@@ -60,7 +60,7 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
       [this](const StartRun::Request& r, StartRun::Response& response) {
         auto kb = store();
         std::optional<core::RunInfo> run;
-        if (r.resume) run = kb->findResumableRun();
+        if (r.resume) run = kb->resumeRun(r.name);
         response.resumed = run.has_value();
         if (!run) {
           run = kb->createRun(r.name, r.parameters.empty() ? "{}" : r.parameters, static_cast<std::int64_t>(r.seed),
@@ -68,6 +68,8 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
         }
         response.run_id = static_cast<std::uint64_t>(run->id);
         response.experiments_done = static_cast<std::uint32_t>(kb->experimentCount(run->id, "done"));
+        for (const auto& e : kb->experiments(run->id)) response.experiments_designed += e.design != "goal";
+        response.goals_done = static_cast<std::uint32_t>(kb->goals(run->id).size());
         response.message = (response.resumed ? "resumed run " : "started run ") + std::to_string(run->id) + " (" +
                            run->name + ")";
         announceRun(run->id);
@@ -228,7 +230,9 @@ void KnowledgeBaseComponent::onConfigure() {
     model_topic_ = model_topic;
     notions_topic_ = notions_topic;
     if (!experiments_pub_) {
-      experiments_pub_ = privateNodeHandle().advertise<ExperimentRecord>("experiments", 100);
+      // Latched: a follower that (re)connects after the KB came back gets the latest record; one it missed
+      // before shows as a gap, and it restores from the KB (ExperimentFollower).
+      experiments_pub_ = privateNodeHandle().advertise<ExperimentRecord>("experiments", 100, true);
       run_pub_ = privateNodeHandle().advertise<std_msgs::UInt64>("run", 1, true);
     }
   }

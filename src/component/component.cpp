@@ -59,9 +59,13 @@ void Component::start() {
   }
   publishStatus();
   // Wall time: heartbeats must go on while simulated time is paused or stepped.
-  heartbeat_timer_ = pnh_.createWallTimer(ros::WallDuration(heartbeat_period_), [this](const ros::WallTimerEvent&) {
+  ros::NodeHandle heartbeat_nh(pnh_);
+  heartbeat_nh.setCallbackQueue(&heartbeat_queue_);
+  heartbeat_timer_ = heartbeat_nh.createWallTimer(ros::WallDuration(heartbeat_period_), [this](const ros::WallTimerEvent&) {
     publishStatus();
   });
+  heartbeat_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &heartbeat_queue_);
+  heartbeat_spinner_->start();
 
   bool autostart = false;
   pnh_.param("autostart", autostart, autostart);
@@ -85,6 +89,7 @@ void Component::halt() {
   stopCommands("component " + name_ + " is shutting down");
   if (lifecycle_.state() != LifecycleState::Finalized) transition(LifecycleTransition::Shutdown);
   heartbeat_timer_.stop();
+  if (heartbeat_spinner_) heartbeat_spinner_->stop();
   // The last word: FINALIZED, so that supervisors see a deliberate exit rather than silence.
   if (status_pub_) status_pub_.publish(makeStatus(false));
 }

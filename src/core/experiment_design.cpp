@@ -101,6 +101,7 @@ RandomDesign::RandomDesign(unsigned long seed, DesignOptions options) : options_
 
 ExperimentChoice RandomDesign::next(const DesignContext& context) {
   const auto objects = reachableObjects(context);
+  if (context.stream) rng_.seed(*context.stream);
   ExperimentChoice c = sample(rng_, objects, options_);
   c.rationale = "random";
   return c;
@@ -117,6 +118,8 @@ std::size_t GridDesign::cells(std::size_t objects) const {
 ExperimentChoice GridDesign::next(const DesignContext& context) {
   reachableObjects(context);  // throws when nothing can be pushed: there is then always a reachable cell
   const std::size_t total = cells(context.objects.size());
+  if (!started_) cursor_ = context.history_count % total;
+  started_ = true;
   for (std::size_t k = 0; k < total; ++k) {
     const std::size_t cell = (cursor_ + k) % total;
     const auto& object = context.objects[cell % context.objects.size()];
@@ -152,6 +155,7 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
   }
   // Draw on a copy and commit only on success, so an error (a NaN curiosity) changes nothing.
   std::mt19937_64 rng = rng_;
+  if (context.stream) rng.seed(*context.stream);
   const bool explore = std::uniform_real_distribution<double>(0.0, 1.0)(rng) < options_.epsilon;
   std::vector<ExperimentChoice> candidates;
   candidates.reserve(options_.candidates);

@@ -24,6 +24,7 @@ CREATE TABLE experiments(
   id             INTEGER PRIMARY KEY,
   run_id         INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
   seq            INTEGER NOT NULL CHECK(seq > 0),
+  design         TEXT NOT NULL DEFAULT '',
   object         TEXT NOT NULL CHECK(length(object) > 0),
   side           TEXT NOT NULL CHECK(side IN ('-x', '+x', '-y', '+y')),
   push_offset    REAL NOT NULL,
@@ -283,6 +284,14 @@ void KnowledgeBase::initialize() {
       Statement(*this, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str()).run();
     }
     transaction.commit();
+  } else if (version == 1) {
+    // Schema 1 did not keep the design that chose an experiment: older experiments keep an empty one.
+    Transaction transaction(*this);
+    if (pragma_int("PRAGMA user_version") == 1) {
+      Statement(*this, "ALTER TABLE experiments ADD COLUMN design TEXT NOT NULL DEFAULT ''").run();
+      Statement(*this, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str()).run();
+    }
+    transaction.commit();
   }
 }
 
@@ -354,6 +363,26 @@ std::optional<RunInfo> KnowledgeBase::findResumableRun() {
   return readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
 }
 
+std::optional<RunInfo> KnowledgeBase::resumeRun(const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Transaction transaction(*this);
+  std::int64_t id = 0;
+  {
+    Statement find(*this, "SELECT id FROM runs WHERE name = ? AND status IN ('running', 'stopped') ORDER BY id DESC LIMIT 1");
+    find.bind(name);
+    if (!find.step()) return std::nullopt;
+    id = find.integer(0);
+  }
+  Statement update(*this, "UPDATE runs SET status = 'running', finished = NULL WHERE id = ?");
+  update.bind(id).run();
+  Statement select(*this, (std::string(kRunColumns) + "WHERE id = ?").c_str());
+  select.bind(id);
+  select.step();
+  RunInfo run = readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
+  transaction.commit();
+  return run;
+}
+
 std::optional<RunInfo> KnowledgeBase::run(std::int64_t run_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   Statement select(*this, (std::string(kRunColumns) + "WHERE id = ?").c_str());
@@ -405,6 +434,7 @@ void validateExperiment(const ExperimentRecord& r) {
   if (r.surprise) throwIfInvalid(checkInRange("experiment.surprise", *r.surprise, 0.0, 1e12));
   if (r.status == "failed") requireText("experiment.failure_reason", r.failure_reason);
   requireText("experiment.failure_reason", r.failure_reason, /*allow_empty=*/true);
+  throwIfInvalid(checkMaxLength("experiment.design", r.design, kMaxNameLength));
   requireFinite("experiment.started", r.started);
   requireFinite("experiment.finished", r.finished);
 }
@@ -446,11 +476,11 @@ ExperimentRecord KnowledgeBase::recordExperiment(const ExperimentRecord& record)
   const std::optional<Outcome>& o = record.outcome;
   const std::optional<Prediction>& p = record.prediction;
   Statement insert(*this,
-                   "INSERT INTO experiments(run_id, seq, object, side, push_offset, distance, before_json, "
+                   "INSERT INTO experiments(run_id, seq, design, object, side, push_offset, distance, before_json, "
                    "after_json, dx, dy, dyaw, pred_dx, pred_dy, pred_dyaw, pred_std_dx, pred_std_dy, pred_std_dyaw, "
                    "surprise, status, failure_reason, started, finished) "
-                   "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-  insert.bind(record.run_id).bind(stored.seq).bind(record.experiment.object).bind(record.experiment.side);
+                   "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  insert.bind(record.run_id).bind(stored.seq).bind(record.design).bind(record.experiment.object).bind(record.experiment.side);
   insert.bind(record.experiment.offset).bind(record.experiment.distance).bind(before_json).bind(after_json);
   if (o) insert.bind(o->dx).bind(o->dy).bind(o->dyaw);
   else insert.bindNull().bindNull().bindNull();
@@ -480,7 +510,7 @@ namespace {
 const char* const kExperimentColumns =
     "SELECT id, run_id, seq, object, side, push_offset, distance, before_json, after_json, dx, dy, dyaw, "
     "pred_dx, pred_dy, pred_dyaw, pred_std_dx, pred_std_dy, pred_std_dyaw, surprise, status, failure_reason, "
-    "started, finished FROM experiments WHERE run_id = ?1 AND (?2 = '' OR status = ?2) ORDER BY seq";
+    "started, finished, design FROM experiments WHERE run_id = ?1 AND (?2 = '' OR status = ?2) ORDER BY seq";
 }  // namespace
 
 std::vector<ExperimentRecord> KnowledgeBase::experiments(std::int64_t run_id, const std::string& status) {
@@ -514,6 +544,7 @@ std::vector<ExperimentRecord> KnowledgeBase::experiments(std::int64_t run_id, co
     r.failure_reason = select.text(20);
     r.started = select.real(21);
     r.finished = select.real(22);
+    r.design = select.text(23);
     records.push_back(std::move(r));
   }
   return records;

@@ -173,7 +173,8 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   core::DesignContext context;
   const std::set<std::string> can(reachable.begin(), reachable.end());
   for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0, footprints_.at(name)});
-  context.history_count = designed_;
+  context.history_count = request.seeded ? request.experiment : designed_;
+  if (request.seeded) context.stream = request.stream;
   // Curiosity of a candidate: MOTIVATION's value for its region, optimistic where it has none.
   context.curiosity = [this](const core::ExperimentChoice& c) {
     const core::RegionKey key = regions_->regionOf(core::Experiment{c.object, c.side, c.offset, c.distance});

@@ -209,6 +209,7 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
     throw std::runtime_error("no movable object in the scene (of ~objects " + joinNames(objects_) + "; " +
                              joinNames(skipped) + " do not move when pushed)");
   }
+  if (request.seeded) rng_.seed(request.stream);
   std::shuffle(movable.begin(), movable.end(), rng_);
   std::uniform_real_distribution<double> angle(-M_PI, M_PI), distance(min_target_, max_target_);
   const double half_x = arena_.size_x / 2 - wall_clearance_, half_y = arena_.size_y / 2 - wall_clearance_;
@@ -251,6 +252,7 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
       for (double distance : distances_) candidates.push_back({request.object, side, offset * limit, distance * max_push_});
     }
   }
+  if (request.seeded) rng_.seed(request.stream);
   std::uniform_int_distribution<std::size_t> side(0, core::pushSides().size() - 1);
   std::uniform_real_distribution<double> offset(-1.0, 1.0), distance(min_push_, max_push_);
   for (int i = 0; i < random_candidates_; ++i) {

@@ -1,6 +1,7 @@
 #include "xpersif/loop/loop_model.h"
 
 #include "xpersif/ros/setup_loader.h"
+#include "xpersif/core/random_stream.h"
 
 #include <actionlib/client/simple_action_client.h>
 
@@ -259,7 +260,8 @@ const core::SetupCatalogue& LoopModel::catalogue() {
   return *catalogue_;
 }
 
-void LoopModel::tidyArena(const FeatureVector& scene) {
+void LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
+  std::mt19937_64 rng(stream);
   std::vector<std::string> misplaced;
   std::vector<std::pair<double, double>> occupied;
   for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
@@ -302,7 +304,7 @@ void LoopModel::tidyArena(const FeatureVector& scene) {
   for (const auto& name : misplaced) {
     std::uniform_real_distribution<double> ux(-hx, hx), uy(-hy, hy);
     for (int attempt = 0; attempt < 200; ++attempt) {
-      const double x = ux(rng_), y = uy(rng_);
+      const double x = ux(rng), y = uy(rng);
       bool free = true;
       for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > spacing;
       if (!free) continue;
@@ -474,13 +476,17 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   running_ = true;
   paused_ = false;
   stop_requested_ = false;
+  // However the run ends: not running, and hand-chosen experiments it did not reach do not carry over.
   struct Running {
-    std::atomic<bool>& flag;
-    ~Running() { flag = false; }
-  } running{running_};
+    LoopModel& loop;
+    ~Running() {
+      loop.running_ = false;
+      std::lock_guard<std::mutex> lock(loop.mutex_);
+      loop.next_experiments_.clear();
+    }
+  } running{*this};
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    rng_.seed(goal.seed);
     for (const auto& e : goal.plan) next_experiments_.push_back(e);
     progress_ = RunLoopFeedback();
   }
@@ -502,7 +508,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
     lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
   }
-  std::uint32_t done = start.response.experiments_done;  // counted towards goal.experiments
+  std::uint32_t done = start.response.experiments_designed;  // counted towards goal.experiments
   std::uint32_t learned = 0;  // successful experiments the model has seen in this run
   setState("experimenting");
   auto finish = [&](const std::string& status) {
@@ -528,7 +534,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
     if (tidy_) {
-      tidyArena(scene);
+      tidyArena(scene, core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Tidy));
       if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
     }
     Experiment experiment;
@@ -547,6 +553,9 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       DesignExperiment request;
       request.request.design = goal.design;
       request.request.scored = start.response.experiments_done + learned;  // what MOTIVATION must have heard of
+      request.request.seeded = true;
+      request.request.stream = core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Design);
+      request.request.experiment = done;
       why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
       experiment = request.response.experiment;
@@ -581,18 +590,22 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     setState("goal_directed");
     publishProgress(&context);
   }
-  for (std::uint32_t g = 0; g < goal.goals; ++g) {
+  for (std::uint32_t g = start.response.goals_done; g < goal.goals; ++g) {
     why = gate(context, false);
     if (!why.empty()) return ended(why);
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
+    // Goal g's choices are numbered after the experiments, so that they never share a stream with them.
+    const std::uint64_t goal_index = goal.experiments + g;
     if (tidy_) {
-      tidyArena(scene);
+      tidyArena(scene, core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Tidy));
       if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
     }
     DesignGoal design;
     design.request.scene = scene;
     design.request.samples = modelSamples();
+    design.request.seeded = true;
+    design.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Goal);
     why = call(nodeHandle(), "goal_design/design_goal", design);
     if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
     ++result.goals_tried;
@@ -613,6 +626,9 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       choose.request.object = design.response.object;
       choose.request.target_x = design.response.target_x;
       choose.request.target_y = design.response.target_y;
+      choose.request.seeded = true;
+      choose.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index * 1000 + push,
+                                               core::StreamPurpose::GoalPush);
       why = call(nodeHandle(), "goal_design/choose_push", choose);
       if (!why.empty()) break;
       ExperimentRecord record;

@@ -123,6 +123,7 @@ core::ExperimentRecord fromMsg(const ExperimentRecord& msg) {
                                 " without a prediction; a surprise needs predicted_mean and predicted_std");
   }
   record.status = msg.status;
+  record.design = msg.design;
   record.failure_reason = msg.reason;
   if (msg.status == "failed" && msg.reason.empty()) {
     throw core::ValidationError("record.reason is empty; a failed experiment must say why it failed");
@@ -140,6 +141,7 @@ ExperimentRecord toMsg(const core::ExperimentRecord& record) {
   msg.id = static_cast<std::uint64_t>(record.id);
   msg.run_id = static_cast<std::uint64_t>(record.run_id);
   msg.seq = static_cast<std::uint32_t>(record.seq);
+  msg.design = record.design;
   msg.experiment = toMsg(record.experiment);
   msg.status = record.status;
   msg.reason = record.failure_reason;

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "xpersif/core/experiment_design.h"
+#include "xpersif/core/random_stream.h"
 #include "xpersif/core/validation.h"
 
 #include <cmath>
@@ -316,4 +317,44 @@ TEST(ExperimentDesign, FactoryAndOptionsAreValidated) {
   o.candidates = 0;
   expectInvalid(o, "options.candidates");
   EXPECT_NO_THROW(makeDesign("grid", 1, DesignOptions{}));
+}
+
+// A resumed run makes the same choices as an uninterrupted one: with a stream (core::streamSeed of the run's
+// seed, run and experiment), a choice depends on the stream alone, not on what the design drew before.
+TEST(ExperimentDesign, AStreamMakesAChoiceIndependentOfHistory) {
+  DesignContext c = cubes();
+  c.curiosity = peaked;
+  for (const std::string name : {"random", "curiosity"}) {
+    auto uninterrupted = makeDesign(name, 7);
+    std::vector<ExperimentChoice> choices;
+    for (std::uint64_t k = 0; k < 10; ++k) {
+      c.stream = streamSeed(11, 1, k, StreamPurpose::Design);
+      choices.push_back(uninterrupted->next(c));
+    }
+    auto resumed = makeDesign(name, 99);  // a fresh design, another ~seed: the stream decides
+    for (std::uint64_t k = 6; k < 10; ++k) {
+      c.stream = streamSeed(11, 1, k, StreamPurpose::Design);
+      EXPECT_TRUE(same(resumed->next(c), choices[k])) << name << " experiment " << k;
+    }
+    int differ = 0;  // and the streams differ from one experiment to the next
+    for (std::size_t k = 1; k < choices.size(); ++k) differ += !same(choices[k], choices[k - 1]);
+    EXPECT_GT(differ, 7) << name;
+  }
+  // The grid resumes at the cell of the history.
+  c.stream.reset();
+  auto grid = makeDesign("grid", 1);
+  const auto cells = run(*grid, c, 8);
+  auto resumed = makeDesign("grid", 1);
+  c.history_count = 5;
+  EXPECT_TRUE(same(resumed->next(c), cells[5]));
+  EXPECT_TRUE(same(resumed->next(c), cells[6]));  // then it follows its own cursor
+}
+
+TEST(StreamSeed, DependsOnEveryArgument) {
+  const std::uint64_t base = streamSeed(1, 2, 3, StreamPurpose::Design);
+  EXPECT_EQ(base, streamSeed(1, 2, 3, StreamPurpose::Design));
+  std::set<std::uint64_t> seen{base, streamSeed(0, 2, 3, StreamPurpose::Design),
+                               streamSeed(1, 3, 3, StreamPurpose::Design), streamSeed(1, 2, 4, StreamPurpose::Design),
+                               streamSeed(1, 2, 3, StreamPurpose::Tidy), streamSeed(2, 1, 3, StreamPurpose::Design)};
+  EXPECT_EQ(seen.size(), 6u);
 }

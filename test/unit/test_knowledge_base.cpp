@@ -488,8 +488,8 @@ TEST(KnowledgeBase, RefusesFilesThatAreNotItsDatabase) {
   // A newer schema.
   const std::string newer = dir.file("newer.sqlite");
   { KnowledgeBase::open(newer); }
-  execRaw(newer, "PRAGMA user_version = 2");
-  EXPECT_NE(openError(newer).find("has schema version 2, newer than this program's (1)"), std::string::npos)
+  execRaw(newer, "PRAGMA user_version = 3");
+  EXPECT_NE(openError(newer).find("has schema version 3, newer than this program's (2)"), std::string::npos)
       << openError(newer);
   // A directory that does not exist.
   EXPECT_NE(openError(dir.file("no/such/dir/kb.sqlite")).find("cannot be opened"), std::string::npos);
@@ -517,4 +517,46 @@ TEST(KnowledgeBase, CorruptedPagesAreFoundAtOpen) {
   EXPECT_TRUE(error.find("is corrupted") != std::string::npos ||
               error.find("is not an SQLite database") != std::string::npos)
       << error;
+}
+
+TEST(KnowledgeBase, ResumeContinuesTheLatestUnfinishedRunOfThatName) {
+  auto kb = KnowledgeBase::open(":memory:");
+  EXPECT_FALSE(kb->resumeRun("campaign").has_value());
+  const RunInfo first = kb->createRun("campaign", "{}", 3, "random");
+  ExperimentRecord e = experimentNumber(first.id, 1);
+  e.design = "random";
+  kb->recordExperiment(e);
+  kb->finishRun(first.id, "stopped");
+  const RunInfo other = kb->createRun("other", "{}", 3, "random");
+  kb->finishRun(other.id, "finished");
+  const auto resumed = kb->resumeRun("campaign");  // stopped: resumable, and running again
+  ASSERT_TRUE(resumed.has_value());
+  EXPECT_EQ(resumed->id, first.id);
+  EXPECT_EQ(resumed->status, "running");
+  EXPECT_TRUE(resumed->finished.empty());
+  EXPECT_EQ(kb->experiments(first.id).at(0).design, "random");
+  EXPECT_FALSE(kb->resumeRun("other").has_value());  // finished runs are not resumed
+  kb->finishRun(first.id, "finished");
+  EXPECT_FALSE(kb->resumeRun("campaign").has_value());
+}
+
+TEST(KnowledgeBase, ASchemaOneDatabaseIsMigratedAndKeepsItsExperiments) {
+  TempDir dir;
+  const std::string path = dir.file("kb.sqlite");
+  {
+    auto kb = KnowledgeBase::open(path);
+    const RunInfo run = kb->createRun("old", "{}", 1, "grid");
+    kb->recordExperiment(experimentNumber(run.id, 1));
+  }
+  execRaw(path, "ALTER TABLE experiments DROP COLUMN design; PRAGMA user_version=1;");  // as schema 1 wrote it
+  auto kb = KnowledgeBase::open(path);
+  EXPECT_EQ(countRows(path, "PRAGMA user_version"), KnowledgeBase::kSchemaVersion);
+  const auto all = kb->experiments(1);
+  ASSERT_EQ(all.size(), 1u);
+  expectIsExperimentNumber(all[0], 1);
+  EXPECT_EQ(all[0].design, "");
+  ExperimentRecord e = experimentNumber(1, 2);
+  e.design = "grid";
+  kb->recordExperiment(e);
+  EXPECT_EQ(kb->experiments(1).at(1).design, "grid");
 }

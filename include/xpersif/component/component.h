@@ -18,6 +18,7 @@
  */
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <atomic>
@@ -136,6 +137,11 @@ class Component {
   bool started_ = false;
   bool halted_ = false;
   std::atomic<bool> halting_{false};
+
+  // Heartbeats have a queue and a thread of their own: a component busy in a long callback of its nodelet's
+  // queue (an operation that waits for a model) is busy, not hung, and must not be restarted for it.
+  ros::CallbackQueue heartbeat_queue_;
+  std::unique_ptr<ros::AsyncSpinner> heartbeat_spinner_;
 
   // ROS handles last: they are destroyed first, so no callback runs on members already gone.
   ros::Publisher status_pub_;

@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -47,6 +48,9 @@ struct DesignObject {
 struct DesignContext {
   std::vector<DesignObject> objects;  ///< the objects that may be pushed
   std::size_t history_count = 0;      ///< experiments done so far
+  /// When set, the design draws this choice from a generator seeded with it (core::streamSeed of the run's
+  /// seed, run and experiment), not from its own running generator: a resumed run then chooses the same.
+  std::optional<std::uint64_t> stream;
   /// Expected learning progress of a candidate (MOTIVATION's curiosity); required by the curiosity design.
   std::function<double(const ExperimentChoice&)> curiosity;
 };
@@ -95,7 +99,8 @@ class RandomDesign : public ExperimentDesign {
 /**
  * Cycles through sides x grid_offsets x grid_distances x objects in that nesting order (object innermost, so
  * that every budget spreads over all objects evenly), skipping cells whose object is unreachable now. The
- * cursor is the grid cell after the last one chosen; it wraps around.
+ * cursor is the grid cell after the last one chosen; it wraps around. A new grid asked with a history (a
+ * resumed run) starts at cell history_count: the same cell as the uninterrupted run unless cells were skipped.
  */
 class GridDesign : public ExperimentDesign {
  public:
@@ -108,6 +113,7 @@ class GridDesign : public ExperimentDesign {
  private:
   DesignOptions options_;
   std::size_t cursor_ = 0;
+  bool started_ = false;
 };
 
 /**

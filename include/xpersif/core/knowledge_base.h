@@ -54,6 +54,7 @@ struct ExperimentRecord {
   std::int64_t id = 0;       ///< set by the database
   std::int64_t run_id = 0;
   std::int64_t seq = 0;      ///< 1, 2, ... within the run; 0 = assign the next one
+  std::string design;        ///< what chose it: curiosity, random, grid, hand, goal ("" before schema 2)
   Experiment experiment;
   FeatureVector before, after;
   std::optional<Outcome> outcome;      ///< required when status is "done"
@@ -94,7 +95,7 @@ struct EventRecord {
 
 class KnowledgeBase {
  public:
-  static constexpr int kSchemaVersion = 1;
+  static constexpr int kSchemaVersion = 2;  ///< 2: experiments keep their design (1 is migrated on open)
   static constexpr std::int32_t kApplicationId = 0x58505346;  ///< "XPSF"
   static constexpr std::size_t kMaxTextLength = 4096;           ///< reasons, event texts, notion texts
   static constexpr std::size_t kMaxBlobBytes = 64u << 20;       ///< one model
@@ -115,6 +116,9 @@ class KnowledgeBase {
                     const std::string& design);
   /// The latest run still "running" (a run whose process died), if any.
   std::optional<RunInfo> findResumableRun();
+  /// Resume the latest run called @p name that has not finished (still "running" after a crash, or "stopped"):
+  /// it is "running" again. None: no such run (then start a new one).
+  std::optional<RunInfo> resumeRun(const std::string& name);
   std::optional<RunInfo> run(std::int64_t run_id);
   /// Every run, oldest first.
   std::vector<RunInfo> runs();

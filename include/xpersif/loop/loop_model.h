@@ -67,7 +67,8 @@ class LoopModel : public Supervisor {
   void setState(const std::string& state);
   void publishProgress(Run::Context* context);
   /// Put cubes pushed against the walls or out of sight back at free spots.
-  void tidyArena(const FeatureVector& scene);
+  /// Put misplaced objects back at random free places drawn from @p stream (core::streamSeed).
+  void tidyArena(const FeatureVector& scene, std::uint64_t stream);
   /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
   /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
   const core::SetupCatalogue& catalogue();
@@ -88,7 +89,6 @@ class LoopModel : public Supervisor {
   bool tidy_ = true, arrange_at_start_ = true;
   double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
   int max_goal_pushes_ = 6;
-  std::mt19937_64 rng_{1};
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
