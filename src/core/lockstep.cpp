@@ -13,10 +13,8 @@ LockstepCoordinator::LockstepCoordinator(double timeout) : timeout_(timeout) {
 void LockstepCoordinator::join(const std::string& name, Role role, double now) {
   if (name.empty()) throw ValidationError("a lockstep participant needs a name");
   roles_[name] = role;
-  if (role == Role::Actor && phase_ == Phase::Act) {
-    if (owed_.empty()) phase_started_ = now;  // its time to answer starts now
-    owed_.insert(name);
-  }
+  // Its time to answer starts now, not when the phase started (a phase may have waited a while for others).
+  if (role == Role::Actor && phase_ == Phase::Act) owed_.emplace(name, now);
 }
 
 bool LockstepCoordinator::leave(const std::string& name) {
@@ -34,12 +32,17 @@ std::vector<std::string> LockstepCoordinator::participants() const {
   return out;
 }
 
+std::vector<std::string> LockstepCoordinator::owed() const {
+  std::vector<std::string> out;
+  for (const auto& [name, since] : owed_) out.push_back(name);
+  return out;
+}
+
 void LockstepCoordinator::owe(Role role, double now) {
   owed_.clear();
   for (const auto& [name, r] : roles_) {
-    if (r == role) owed_.insert(name);
+    if (r == role) owed_.emplace(name, now);
   }
-  phase_started_ = now;
 }
 
 void LockstepCoordinator::startTick(std::uint64_t tick, double now, double physics_time, bool idle) {
@@ -51,7 +54,7 @@ void LockstepCoordinator::startTick(std::uint64_t tick, double now, double physi
   owe(Role::Sensor, now);
   if (idle) return;
   for (auto it = owed_.begin(); it != owed_.end();) {
-    const auto due = next_due_.find(*it);
+    const auto due = next_due_.find(it->first);
     it = due != next_due_.end() && due->second > physics_time + 1e-9 ? owed_.erase(it) : std::next(it);
   }
 }
@@ -83,8 +86,9 @@ std::string LockstepCoordinator::report(const std::string& name, std::uint64_t t
 
 std::vector<std::string> LockstepCoordinator::dropLate(double now) {
   std::vector<std::string> late;
-  if (owed_.empty() || now - phase_started_ < timeout_) return late;
-  late.assign(owed_.begin(), owed_.end());
+  for (const auto& [name, since] : owed_) {
+    if (now - since >= timeout_) late.push_back(name);
+  }
   for (const auto& name : late) {
     if (leave(name)) command_ = Command{true, 0.0, 0.0};  // a dropped controller commands nothing
   }

@@ -105,3 +105,25 @@ TEST(Lockstep, ALeavingDriverStopsTheRobotAndFreesThePhase) {
   EXPECT_TRUE(c.phaseComplete());
   EXPECT_TRUE(c.leave("controller"));
 }
+
+TEST(Lockstep, AnActorJoiningALongPhaseGetsItsWholeTimeoutFromItsJoin) {
+  LockstepCoordinator c(2.0);
+  c.join("slow", Role::Actor);
+  c.startTick(1, 10.0);
+  c.startAct(10.0);                   // "slow" owes from 10.0
+  c.join("late", Role::Actor, 11.5);  // "late" owes from its join, not from the phase's start
+  EXPECT_EQ(c.report("slow", 1, Phase::Act, true, false), "");
+  EXPECT_TRUE(c.dropLate(12.5).empty()) << "'late' has been owing for 1 s of its 2";
+  EXPECT_TRUE(c.has("late"));
+  EXPECT_EQ(c.dropLate(13.5), std::vector<std::string>{"late"});
+  // Each participant its own deadline: one owing since the phase started goes, one that joined later stays.
+  LockstepCoordinator d(2.0);
+  d.join("a", Role::Actor);
+  d.startTick(1, 20.0);
+  d.startAct(20.0);
+  d.join("b", Role::Actor, 21.0);
+  EXPECT_EQ(d.dropLate(22.0), std::vector<std::string>{"a"});
+  EXPECT_EQ(d.owed(), std::vector<std::string>{"b"});
+  EXPECT_EQ(d.dropLate(23.0), std::vector<std::string>{"b"});
+  EXPECT_TRUE(d.phaseComplete());
+}

@@ -11,14 +11,14 @@
  * or someone asked for simulated time): an idle loop leaves simulated time where it is, so how long the loop
  * thinks between experiments (wall time) never changes what the physics does.
  *
- * A participant that does not report within the timeout (wall seconds, from the start of the phase) is
- * dropped: the run goes on without it and the caller reports that. Not thread-safe: one owner.
+ * A participant that does not report within the timeout (wall seconds, from when its report became owed: the
+ * start of the phase, or its join for an actor joining during an ACT phase) is dropped: the run goes on without
+ * it and the caller reports that. Not thread-safe: one owner.
  */
 #pragma once
 
 #include <cstdint>
 #include <map>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -62,11 +62,11 @@ class LockstepCoordinator {
   bool phaseComplete() const { return owed_.empty(); }
   /// After a complete SENSE phase: start ACT at wall time @p now. Returns the sensors that published output.
   std::vector<std::string> startAct(double now);
-  /// Participants whose report for the current phase is later than the timeout at wall time @p now; they are
-  /// removed (left) and their names returned.
+  /// Participants whose report for the current phase is owed for the timeout or longer at wall time @p now
+  /// (each counted from when it became owed); they are removed (left) and their names returned.
   std::vector<std::string> dropLate(double now);
   /// Names still owed for the current phase, for status and sentences.
-  std::vector<std::string> owed() const { return {owed_.begin(), owed_.end()}; }
+  std::vector<std::string> owed() const;
 
   std::uint64_t tick() const { return tick_; }
   Phase phase() const { return phase_; }
@@ -89,11 +89,10 @@ class LockstepCoordinator {
   double timeout_;
   std::map<std::string, Role> roles_;
   std::map<std::string, double> next_due_;  // sensors: physics time of their next frame
-  std::set<std::string> owed_;
+  std::map<std::string, double> owed_;  // who owes a report for the current phase, since what wall time
   std::vector<std::string> published_;
   std::uint64_t tick_ = 0;
   Phase phase_ = Phase::Act;  // tick 0 is complete: nothing is owed until the first tick starts
-  double phase_started_ = 0;
   bool wants_time_ = false;
   std::uint64_t requested_ = 0;
   Command command_;
