@@ -10,6 +10,7 @@ GROUPS = [
     ("knowledge base (SQLite)", r"libsqlite|libxpersif_kb"),
     ("messaging (roscpp, serialization, sockets, kernel)", r"libroscpp|librosconsole|libxmlrpc|libcpp_common|librostime|\[kernel|libboost|libbondcpp|libnodelet|libactionlib"),
     ("python (roslaunch, rosout, tools)", r"python"),
+    ("idle (swapper)", r"^swapper$"),
     ("C/C++ runtime (malloc, memcpy, libstdc++)", r"libc\.so|libc-|libstdc\+\+|libm\.|ld-linux|libpthread|libgcc"),
     ("our other code", r"libxpersif|xpersif"),
 ]
@@ -21,10 +22,15 @@ def main():
         m = re.match(r"\s*([\d.]+)%\s+(\S.*?)\s{2,}(\S.*)$", line)
         if not m:
             continue
-        percent, dso = float(m.group(1)), m.group(3)
-        group = next((name for name, pattern in GROUPS if re.search(pattern, dso)), "other")
+        percent, comm, dso = float(m.group(1)), m.group(2).strip(), m.group(3)
+        if comm == "swapper":
+            group = "idle (swapper)"
+        elif comm.startswith("python") or "ros" in comm and "xpersif" not in comm and comm.startswith("ros"):
+            group = "python (roslaunch, rosout, tools)"
+        else:
+            group = next((name for name, pattern in GROUPS if re.search(pattern, dso)), "other")
         totals[group] = totals.get(group, 0.0) + percent
-    print("--- by activity (% of the CPU samples; lines under 0.3 % left out) ---")
+    print("--- by activity (% of both cores' time) ---")
     for name, percent in sorted(totals.items(), key=lambda kv: -kv[1]):
         print(f"{percent:6.1f} %  {name}")
 

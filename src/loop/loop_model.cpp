@@ -3,8 +3,6 @@
 #include "xpersif/ros/setup_loader.h"
 #include "xpersif/core/random_stream.h"
 
-#include <actionlib/client/simple_action_client.h>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -234,6 +232,7 @@ void LoopModel::publishProgress(Run::Context* context) {
 }
 
 bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_than) {
+  Spending spending(wall_spent_, "scene");
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
   while (ros::ok()) {
     GetFeatures features;
@@ -261,6 +260,7 @@ const core::SetupCatalogue& LoopModel::catalogue() {
 }
 
 void LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
+  Spending spending(wall_spent_, "tidy");
   std::mt19937_64 rng(stream);
   std::vector<std::string> misplaced;
   std::vector<std::pair<double, double>> occupied;
@@ -346,6 +346,7 @@ std::uint32_t LoopModel::modelSamples() {
 }
 
 void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
+  Spending spending(wall_spent_, "learning");
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(learning_timeout_);
   while (ros::WallTime::now() < deadline && !context.stopRequested()) {
     {
@@ -403,6 +404,7 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   plan.request.goal = {"pushed(" + experiment.object + ", " + experiment.side + ", " + literalNumber(experiment.offset) +
                            ", " + literalNumber(experiment.distance) + ")",
                        "observed(scene)"};
+  std::optional<Spending> spending(std::in_place, wall_spent_, "plan");
   std::string why = call(nodeHandle(), "planner/make_plan", plan);
   // Right after start-up the PLANNER may still be reading the components' contracts: give it time.
   const ros::WallTime patience = ros::WallTime::now() + ros::WallDuration(60.0);
@@ -412,7 +414,10 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   }
   if (!why.empty()) return fail("no plan: " + why);
 
-  actionlib::SimpleActionClient<ExecutePlanAction> execution(nodeHandle(), "execution/execute_plan", false);
+  if (!execution_) {
+    execution_ = std::make_unique<actionlib::SimpleActionClient<ExecutePlanAction>>(nodeHandle(), "execution/execute_plan", false);
+  }
+  auto& execution = *execution_;
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(20.0);
   while (!execution.isServerConnected() && ros::WallTime::now() < until) ros::WallDuration(0.01).sleep();
   if (!execution.isServerConnected()) return fail("EXECUTION's execute_plan is not offered");
@@ -420,6 +425,7 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   goal.steps = plan.response.steps;
   goal.pose_source = pose_source_;
   goal.retries = static_cast<std::uint32_t>(retries_);
+  spending.emplace(wall_spent_, "execution");
   execution.sendGoal(goal);
   while (!execution.getState().isDone()) {
     if (context.stopRequested()) {
@@ -441,6 +447,7 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   if (!before || !after) return fail("the overhead camera lost " + experiment.object + " during the experiment");
 
   // What the model expected (it has not seen this experiment yet) ...
+  spending.emplace(wall_spent_, "predict");
   Predict predict;
   predict.request.experiment = experiment;
   predict.request.object = *before;
@@ -491,6 +498,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     progress_ = RunLoopFeedback();
   }
 
+  wall_spent_.clear();
+  const ros::WallTime run_started = ros::WallTime::now();
   StartRun start;
   start.request.name = goal.name;
   start.request.seed = goal.seed;
@@ -512,6 +521,15 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   std::uint32_t learned = 0;  // successful experiments the model has seen in this run
   setState("experimenting");
   auto finish = [&](const std::string& status) {
+    std::ostringstream spent;
+    double counted = 0;
+    for (const auto& [step, seconds] : wall_spent_) {
+      spent << (counted == 0 ? "" : ", ") << step << " " << core::describeNumber(seconds);
+      counted += seconds;
+    }
+    ROS_INFO("%s: run %lu %s after %.1f s of wall time: %s, other %.1f s", name().c_str(),
+             static_cast<unsigned long>(result.run_id), status.c_str(), (ros::WallTime::now() - run_started).toSec(),
+             spent.str().c_str(), (ros::WallTime::now() - run_started).toSec() - counted);
     FinishRun finish_run;
     finish_run.request.run_id = result.run_id;
     finish_run.request.status = status;
@@ -556,6 +574,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       request.request.seeded = true;
       request.request.stream = core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Design);
       request.request.experiment = done;
+      Spending spending(wall_spent_, "design");
       why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
       experiment = request.response.experiment;
@@ -566,7 +585,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     RecordExperiment store;
     store.request.record = record;
     store.request.record.run_id = result.run_id;
-    why = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
+    {
+      Spending spending(wall_spent_, "record");
+      why = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
+    }
     if (!why.empty()) return ended("the knowledge base refused the experiment: " + why);
     ++done;
     if (record.status == "done") {
@@ -606,7 +628,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     design.request.samples = modelSamples();
     design.request.seeded = true;
     design.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Goal);
-    why = call(nodeHandle(), "goal_design/design_goal", design);
+    {
+      Spending spending(wall_spent_, "design");
+      why = call(nodeHandle(), "goal_design/design_goal", design);
+    }
     if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
     ++result.goals_tried;
     RecordGoal record_goal;
@@ -629,7 +654,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       choose.request.seeded = true;
       choose.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index * 1000 + push,
                                                core::StreamPurpose::GoalPush);
-      why = call(nodeHandle(), "goal_design/choose_push", choose);
+      {
+        Spending spending(wall_spent_, "design");
+        why = call(nodeHandle(), "goal_design/choose_push", choose);
+      }
       if (!why.empty()) break;
       ExperimentRecord record;
       runExperiment(choose.response.experiment, "goal", context, record);

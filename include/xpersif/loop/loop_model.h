@@ -27,14 +27,17 @@
  */
 #pragma once
 
+#include <actionlib/client/simple_action_client.h>
 #include <std_srvs/Trigger.h>
 
 #include <atomic>
 #include <deque>
 #include <mutex>
 #include <optional>
+#include <map>
 #include <random>
 
+#include "xpersif/ExecutePlanAction.h"
 #include "xpersif/ExperimentRecord.h"
 #include "xpersif/FeatureVector.h"
 #include "xpersif/LearnedModel.h"
@@ -84,6 +87,8 @@ class LoopModel : public Supervisor {
   std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
   std::mutex catalogue_mutex_;
   std::unique_ptr<LockstepClient> lockstep_;  // lets simulated time pass while it waits (lockstep mode)
+  // EXECUTION's execute_plan, made once: an action client takes ~0.25 s to connect (bench/loop_speed.md).
+  std::unique_ptr<actionlib::SimpleActionClient<ExecutePlanAction>> execution_;
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
@@ -95,6 +100,18 @@ class LoopModel : public Supervisor {
   std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
   RunLoopFeedback progress_;
   std::uint32_t model_samples_ = 0;
+  /// Wall seconds the current run spent in each step (scene, tidy, design, plan, execution, predict, record,
+  /// learning), logged at its end: where a campaign's time goes (bench/loop_speed.md).
+  std::map<std::string, double> wall_spent_;
+  /// Adds the wall time from construction to destruction to wall_spent_[step] (only the run's thread uses it).
+  struct Spending {
+    Spending(std::map<std::string, double>& spent, const char* step)
+        : spent(spent), step(step), since(ros::WallTime::now()) {}
+    ~Spending() { spent[step] += (ros::WallTime::now() - since).toSec(); }
+    std::map<std::string, double>& spent;
+    const char* step;
+    ros::WallTime since;
+  };
 
   ros::Publisher progress_pub_;
   ros::Subscriber model_sub_;
