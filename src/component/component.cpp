@@ -124,6 +124,9 @@ bool Component::onTransitionService(LifecycleTransition t, Transition::Response&
   const TransitionResult result = transition(t);
   response.success = result.success;
   response.message = result.message;
+  // Refused: the lifecycle does not allow it from this state; failed: the component's hook threw.
+  response.code = result.success ? ResultCode::OK
+                                 : (result.state == LifecycleState::Error ? ResultCode::FAILED : ResultCode::PRECONDITION_FAILED);
   response.state = static_cast<std::uint8_t>(result.state);
   response.state_name = toString(result.state);
   return true;
@@ -177,6 +180,7 @@ bool Component::onGetContracts(GetContracts::Request& request, GetContracts::Res
     if (request.name.empty() || request.name == contract.name) response.contracts.push_back(toMessage(contract));
   }
   response.success = request.name.empty() || !response.contracts.empty();
+  response.code = response.success ? ResultCode::OK : ResultCode::INVALID;
   if (!response.success) {
     response.message = "component " + name_ + " has no command or operation '" + request.name + "'; it has: ";
     for (std::size_t i = 0; i < names.size(); ++i) response.message += (i ? ", " : "") + names[i];

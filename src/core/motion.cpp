@@ -758,6 +758,7 @@ void PushController::start(const PushPlan& plan, const std::vector<Pose2D>& appr
     throwIfInvalid(checkPose(name, pose));
   }
   blocked_ = false;
+  pushed_most_ = 0;
   std::vector<Pose2D> path = approach_path;
   for (std::size_t i = 0; i < path.size(); ++i) {
     throwIfInvalid(checkPose("approach_path[" + std::to_string(i) + "]", path[i]));
@@ -888,6 +889,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
     if (along >= 0) phase_ = PushPhase::Push;
   }
   if (phase_ == PushPhase::Push) {
+    pushed_most_ = std::max(pushed_most_, pushed);
     fb = lineControl(current, dt, plan_.push_end, options_.push_speed, false, true, along);
     if (along >= 0) {
       phase_ = PushPhase::Retreat;
@@ -905,7 +907,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
       fb.done = true;
       fb.blocked = blocked_;
       fb.progress = 1.0;
-      fb.pushed = pushed;
+      fb.pushed = pushed_most_;
       return fb;
     }
   }

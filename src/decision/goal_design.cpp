@@ -239,7 +239,7 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
   std::unique_lock<std::mutex> lock(mutex_);
   waitForSamples(lock, request.samples);
-  if (!learner_) throw std::runtime_error("no model");
+  if (!learner_) throw core::UnavailableError("no learned model has arrived yet");
   const core::ObjectFeatures object = fromMsg(*findObject(request.scene, request.object));
   const auto footprint = footprints_.find(request.object);
   if (footprint == footprints_.end()) {

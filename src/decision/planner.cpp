@@ -78,6 +78,24 @@ std::vector<PlanStep> toStepMessages(const std::vector<core::PlanStep>& steps,
   return out;
 }
 
+namespace {
+/// "" when @p goal is one or more ground literals; otherwise why not.
+std::string whyNotGround(const std::vector<std::string>& goal) {
+  if (goal.empty()) return "the goal is empty";
+  for (const auto& text : goal) {
+    try {
+      const core::Literal l = core::parseLiteral(text);
+      for (const auto& a : l.arguments) {
+        if (a[0] == '?') return "goal literal '" + text + "' has the variable " + a + "; give a value";
+      }
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+  }
+  return "";
+}
+}  // namespace
+
 Planner::Planner(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/PlannerNodelet") {
   core::Contract declared;
@@ -96,23 +114,13 @@ Planner::Planner(ros::NodeHandle nh, ros::NodeHandle private_nh)
         return core::Bindings{{"?goal", std::to_string(r.goal.size()) + "_literals"}};
       })
       .check("contracts_loaded(operators)", [this](const MakePlan::Request&) { return whyNotLoaded(); })
-      .check("ground(?goal)", [](const MakePlan::Request& r) {
-        if (r.goal.empty()) return std::string("the goal is empty");
-        for (const auto& text : r.goal) {
-          try {
-            const core::Literal l = core::parseLiteral(text);
-            for (const auto& a : l.arguments) {
-              if (a[0] == '?') return "goal literal '" + text + "' has the variable " + a + "; give a value";
-            }
-          } catch (const std::exception& e) {
-            return std::string(e.what());
-          }
-        }
-        return std::string();
-      });
+      .check("ground(?goal)", [](const MakePlan::Request& r) { return whyNotGround(r.goal); });
   addOperation<MakePlan>(
       contract,
       [](const MakePlan::Request& r) {
+        // A malformed goal is a bad request (INVALID), not a condition that may come to hold: checked here first.
+        const std::string why = whyNotGround(r.goal);
+        if (!why.empty()) throw core::ValidationError(why);
         core::requireMaxSize("goal", r.goal.size(), 64);
         core::requireMaxSize("state", r.state.size(), 256);
         core::requireMaxSize("excluded", r.excluded.size(), 256);

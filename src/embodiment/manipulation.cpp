@@ -289,6 +289,8 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
     if (!ticker.next({}, stopping) || !ticker.sense().empty()) break;
   }
   ticker.finish();
+  result.blocked = blocked;
+  result.pushed = pushed;
   result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
                    " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
                    (blocked ? " (it resisted: the robot stalled after " + core::describeNumber(pushed) + " m and backed off)" : "") +

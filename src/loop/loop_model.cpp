@@ -190,26 +190,31 @@ void LoopModel::onConfigure() {
 // ---- helpers --------------------------------------------------------------------------------------------
 
 namespace {
-/// Call a service of another component from the loop's own thread; "" or why it failed.
+/// Call a service of another component from the loop's own thread; "" or why it failed, with the outcome's
+/// xpersif/ResultCode in @p code (UNAVAILABLE when the service is not offered or does not answer).
 template <class Service>
-std::string call(ros::NodeHandle& nh, const std::string& name, Service& service) {
+std::string call(ros::NodeHandle& nh, const std::string& name, Service& service, std::uint8_t* code = nullptr) {
   const std::string resolved = nh.resolveName(name);
+  std::uint8_t ignored = 0;
+  std::uint8_t& result = code ? *code : ignored;
+  result = ResultCode::UNAVAILABLE;
   if (!ros::service::waitForService(resolved, ros::Duration(10.0))) return "service " + resolved + " is not offered";
   if (!ros::service::call(resolved, service)) return "service " + resolved + " did not answer";
+  result = service.response.code;
   if (!service.response.success) return resolved + ": " + service.response.message;
   return "";
 }
-/// The same, patient with a component that is being restarted (LOOPMODEL brings it back): retries while the
-/// service is missing or the component is not ACTIVE yet, for up to @p patience seconds.
+/// The same, patient with a component that is being restarted (LOOPMODEL brings it back) or not ready yet:
+/// retries while the answer is UNAVAILABLE or NOT_ACTIVE, for up to @p patience seconds.
 template <class Service>
 std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service& service, double patience = 60.0) {
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
-  std::string why = call(nh, name, service);
+  std::uint8_t code = ResultCode::OK;
+  std::string why = call(nh, name, service, &code);
   while (!why.empty() && ros::ok() && ros::WallTime::now() < until &&
-         (why.find("is not offered") != std::string::npos || why.find("did not answer") != std::string::npos ||
-          why.find("ACTIVE") != std::string::npos)) {
+         (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE)) {
     ros::WallDuration(0.2).sleep();
-    why = call(nh, name, service);
+    why = call(nh, name, service, &code);
   }
   return why;
 }
@@ -405,12 +410,16 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
                            ", " + literalNumber(experiment.distance) + ")",
                        "observed(scene)"};
   std::optional<Spending> spending(std::in_place, wall_spent_, "plan");
-  std::string why = call(nodeHandle(), "planner/make_plan", plan);
-  // Right after start-up the PLANNER may still be reading the components' contracts: give it time.
+  std::uint8_t code = ResultCode::OK;
+  std::string why = call(nodeHandle(), "planner/make_plan", plan, &code);
+  // Right after start-up the PLANNER may still be reading the components' contracts (its precondition
+  // contracts_loaded): give it time.
   const ros::WallTime patience = ros::WallTime::now() + ros::WallDuration(60.0);
-  while (why.find("contracts_loaded") != std::string::npos && ros::WallTime::now() < patience && !context.stopRequested()) {
+  while (!why.empty() && (code == ResultCode::PRECONDITION_FAILED || code == ResultCode::UNAVAILABLE ||
+                          code == ResultCode::NOT_ACTIVE) &&
+         ros::WallTime::now() < patience && !context.stopRequested()) {
     ros::WallDuration(0.2).sleep();
-    why = call(nodeHandle(), "planner/make_plan", plan);
+    why = call(nodeHandle(), "planner/make_plan", plan, &code);
   }
   if (!why.empty()) return fail("no plan: " + why);
 
@@ -520,6 +529,17 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   std::uint32_t done = start.response.experiments_designed;  // counted towards goal.experiments
   std::uint32_t learned = 0;  // successful experiments the model has seen in this run
   setState("experimenting");
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    progress_.experiment = done;
+    const auto left = [](std::uint32_t total, std::uint32_t had) { return total > had ? total - had : 0u; };
+    progress_.last = (start.response.resumed ? "resumed run " : "started run ") + std::to_string(result.run_id) +
+                     " (" + goal.name + "): " + std::to_string(done) + " experiments and " +
+                     std::to_string(start.response.goals_done) + " goals done, " +
+                     std::to_string(left(goal.experiments, done)) + " experiments and " +
+                     std::to_string(left(goal.goals, start.response.goals_done)) + " goals left";
+  }
+  publishProgress(&context);
   auto finish = [&](const std::string& status) {
     std::ostringstream spent;
     double counted = 0;

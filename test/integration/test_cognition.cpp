@@ -384,7 +384,7 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
 
   // ---- resume: the same run with its count of done experiments ----
   xpersif::StartRun resume;
-  resume.request.name = "cognition test (resumed)";
+  resume.request.name = "cognition test";  // resume continues the unfinished run of that name
   resume.request.resume = true;
   ASSERT_TRUE(call("/knowledge_base/start_run", resume));
   ASSERT_TRUE(resume.response.success) << resume.response.message;

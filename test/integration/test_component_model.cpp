@@ -10,6 +10,7 @@
 
 #include "test_helpers.h"
 #include "xpersif/AddValues.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/CountToAction.h"
 #include "xpersif/GetContracts.h"
 #include "xpersif/GetState.h"
@@ -74,6 +75,7 @@ TEST_F(ComponentModel, LifecycleWalksLegalTransitionsAndRefusesIllegalOnesWithAR
 
   auto r = transition("/statistics", "activate");
   EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.code, xpersif::ResultCode::PRECONDITION_FAILED);  // callers decide on codes, not on wording
   EXPECT_EQ(r.state, ComponentStatus::UNCONFIGURED);
   EXPECT_NE(r.message.find("configure it first"), std::string::npos) << r.message;
 
@@ -85,6 +87,7 @@ TEST_F(ComponentModel, LifecycleWalksLegalTransitionsAndRefusesIllegalOnesWithAR
   EXPECT_EQ(stateOf("/statistics"), ComponentStatus::INACTIVE);
   r = transition("/statistics", "activate");
   EXPECT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.code, xpersif::ResultCode::OK);
   EXPECT_EQ(r.state_name, "ACTIVE");
 
   r = transition("/statistics", "configure");
@@ -235,6 +238,7 @@ TEST_F(ComponentModel, OperationWithBadInputGetsAClearErrorAndChangesNothing) {
   auto r = addValues("/counter", {1.0, std::numeric_limits<double>::quiet_NaN(), 2.0});
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.message, "invalid request: values[1] is NaN; every element must be a finite number");
+  EXPECT_EQ(r.code, xpersif::ResultCode::INVALID);
 
   r = addValues("/counter", std::vector<double>(11, 1.0));  // ~max_values is 10
   EXPECT_FALSE(r.success);
@@ -249,6 +253,7 @@ TEST_F(ComponentModel, OperationWithBadInputGetsAClearErrorAndChangesNothing) {
 
   r = addValues("/counter", {1.5, 2.5});
   EXPECT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.code, xpersif::ResultCode::OK);
   EXPECT_DOUBLE_EQ(r.total, before.total + 4.0);
 
   ComponentEvent refused;
@@ -268,6 +273,7 @@ TEST_F(ComponentModel, OperationsNeedAnActiveComponent) {
   ASSERT_TRUE(transition("/counter", "deactivate").success || stateOf("/counter") != ComponentStatus::ACTIVE);
   auto r = addValues("/counter", {1.0});
   EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.code, xpersif::ResultCode::NOT_ACTIVE);
   EXPECT_NE(r.message.find("operation 'add_values' needs component /counter ACTIVE"), std::string::npos) << r.message;
   ensureActive("/counter");
 }
@@ -316,6 +322,7 @@ TEST_F(ComponentModel, AggregatePartThatFailsToConfigurePutsTheAggregateInErrorN
   ros::param::set("/statistics/extremes/history", 0);
   auto r = transition("/statistics", "configure");
   EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.code, xpersif::ResultCode::FAILED);
   EXPECT_EQ(r.state_name, "ERROR");
   EXPECT_NE(r.message.find("part 'extremes' failed to configure: /statistics/extremes/history is 0"),
             std::string::npos)

@@ -12,6 +12,7 @@
 
 #include "ground_truth.h"
 #include "test_helpers.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/BodyPoses.h"
 #include "xpersif/ChoosePush.h"
 #include "xpersif/DesignExperiment.h"
@@ -164,6 +165,7 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   // Bad requests are refused with the reason.
   const auto unknown = design({"purple_cube"});
   EXPECT_FALSE(unknown.response.success);
+  EXPECT_EQ(unknown.response.code, xpersif::ResultCode::PRECONDITION_FAILED);  // known_objects(?reachable)
   EXPECT_NE(unknown.response.message.find("purple_cube"), std::string::npos) << unknown.response.message;
 
   // An unknown design: configure fails, naming the parameter; a good one recovers.
@@ -246,8 +248,10 @@ TEST_F(Decision, MakePlanChainsGetFeaturesPushGetFeatures) {
   EXPECT_FALSE(unreachable.response.success);
   EXPECT_NE(unreachable.response.message.find("teleported(red_cube)"), std::string::npos) << unreachable.response.message;
   EXPECT_NE(unreachable.response.message.find("no operator"), std::string::npos) << unreachable.response.message;
+  EXPECT_EQ(unreachable.response.code, xpersif::ResultCode::FAILED);  // it searched and found no plan
   const auto malformed = plan({"pushed(red_cube"});
   EXPECT_FALSE(malformed.response.success);
+  EXPECT_EQ(malformed.response.code, xpersif::ResultCode::INVALID);
   const auto empty = plan({});
   EXPECT_FALSE(empty.response.success);
   EXPECT_NE(empty.response.message.find("empty"), std::string::npos) << empty.response.message;
@@ -360,6 +364,7 @@ TEST_F(Decision, GoalDesignRefusesWithoutAModelThenAimsItsPushesAtTheTarget) {
   choose.request.scene.objects.push_back(red);
   ASSERT_TRUE(ros::service::call(ns + "goal_design/choose_push", choose));
   EXPECT_FALSE(choose.response.success);
+  EXPECT_EQ(choose.response.code, xpersif::ResultCode::PRECONDITION_FAILED);
   EXPECT_NE(choose.response.message.find("learned(model)"), std::string::npos) << choose.response.message;
   xpersif::DesignGoal goal_call;
   goal_call.request.scene = choose.request.scene;

@@ -16,6 +16,7 @@
 #include "xpersif/GetExperiments.h"
 #include "xpersif/GetNotions.h"
 #include "xpersif/GetState.h"
+#include "xpersif/LearnedModel.h"
 #include "xpersif/Motivation.h"
 #include "xpersif/RunLoopAction.h"
 
@@ -56,6 +57,7 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   Recorder<xpersif::ExperimentRecord> records(nh, ns + "knowledge_base/experiments");
   Recorder<xpersif::Motivation> motivation(nh, ns + "motivation/motivation");
   Recorder<xpersif::ComponentEvent> events(nh, ns + "loop_model/events");
+  Recorder<xpersif::LearnedModel> models(nh, ns + "machine_learning/model");
 
   actionlib::SimpleActionClient<xpersif::RunLoopAction> client(ns + "loop_model/run", true);
   ASSERT_TRUE(client.waitForServer(ros::Duration(30.0)));
@@ -114,6 +116,24 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
         return false;
       },
       5.0));
+  // Something was learned: MACHINELEARNING's model of this run has seen every successful experiment, and its
+  // predictions changed as it learned (the first experiment was predicted by an empty model).
+  std::size_t done_records = 0;
+  for (const auto& r : stored.response.experiments) done_records += r.status == "done";
+  EXPECT_TRUE(waitFor(
+      [&] {
+        for (const auto& m : models.messages()) {
+          if (m.run_id == result->run_id && m.samples >= done_records) return true;
+        }
+        return false;
+      },
+      30.0))
+      << "no model of run " << result->run_id << " has learned its " << done_records << " experiments";
+  std::set<std::vector<double>> predictions;
+  for (const auto& r : stored.response.experiments) {
+    if (r.status == "done") predictions.insert(r.predicted_mean);
+  }
+  EXPECT_GE(predictions.size(), 2u) << "every experiment was predicted the same: nothing was learned";
   xpersif::GetNotions notions;
   notions.request.run_id = result->run_id;
   EXPECT_TRUE(ros::service::call(ns + "knowledge_base/get_notions", notions));

@@ -26,11 +26,13 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/GetContracts.h"
 #include "xpersif/GetState.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/Transition.h"
 #include "xpersif/component/command.h"
 #include "xpersif/component/events.h"
@@ -152,6 +154,18 @@ class Component {
 
 // ---- templates ----------------------------------------------------------------------------------
 
+namespace detail {
+template <class Response, class = void>
+struct HasCode : std::false_type {};
+template <class Response>
+struct HasCode<Response, std::void_t<decltype(std::declval<Response&>().code)>> : std::true_type {};
+/// Sets response.code where the service has one (ours do; std_srvs' do not).
+template <class Response>
+void setCode(Response& response, std::uint8_t code) {
+  if constexpr (HasCode<Response>::value) response.code = code;
+}
+}  // namespace detail
+
 template <class Service>
 void Component::addOperation(ContractChecker<typename Service::Request> contract,
                              std::function<void(const typename Service::Request&)> validate,
@@ -172,14 +186,19 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
                                                             Request& request, Response& response) {
     const ros::Time started = ros::Time::now();
     std::string refusal = requires_active ? whyNotActive("operation '" + op + "'") : "";
+    std::uint8_t code = refusal.empty() ? ResultCode::OK : ResultCode::NOT_ACTIVE;
     if (refusal.empty() && validate) {
       try {
         validate(request);
       } catch (const std::exception& e) {
         refusal = std::string("invalid request: ") + e.what();
+        code = ResultCode::INVALID;
       }
     }
-    if (refusal.empty()) refusal = checker->firstUnmet(request);
+    if (refusal.empty()) {
+      refusal = checker->firstUnmet(request);
+      if (!refusal.empty()) code = ResultCode::PRECONDITION_FAILED;
+    }
     ComponentEvent event;
     if (!refusal.empty()) {
       response = Response();
@@ -187,17 +206,28 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
       response.message = refusal;
       event = events_.make(ComponentEvent::OPERATION, op, "refused", refusal);
     } else {
+      // The exception's type is the code (as tf2_ros' buffer server maps TF2Error), never its wording.
       try {
         handle(request, response);
         response.success = true;
         event = events_.make(ComponentEvent::OPERATION, op, "ok");
         event.effects = checker->groundEffects(request);
-      } catch (const std::exception& e) {
+      } catch (const core::ValidationError& e) {
+        code = ResultCode::INVALID;
         response.success = false;
         response.message = e.what();
-        event = events_.make(ComponentEvent::OPERATION, op, "failed", response.message);
+      } catch (const core::UnavailableError& e) {
+        code = ResultCode::UNAVAILABLE;
+        response.success = false;
+        response.message = e.what();
+      } catch (const std::exception& e) {
+        code = ResultCode::FAILED;
+        response.success = false;
+        response.message = e.what();
       }
+      if (!response.success) event = events_.make(ComponentEvent::OPERATION, op, "failed", response.message);
     }
+    detail::setCode(response, code);
     event.request = toYaml(request);
     event.response = toYaml(response);
     event.duration = (ros::Time::now() - started).toSec();

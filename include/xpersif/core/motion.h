@@ -314,7 +314,7 @@ struct PushFeedback {
   Velocity2D command;
   PushPhase phase = PushPhase::Idle;
   double progress = 0;     ///< [0, 1], share of the planned path (approach path, contact, push, retreat) done
-  double pushed = 0;       ///< m driven along the push line past the contact pose (PUSH and later)
+  double pushed = 0;       ///< m driven along the push line past the contact pose (PUSH and later); at Done the farthest it got
   bool done = false;       ///< phase Done
   bool failed = false;     ///< phase Failed; reason says why (and in which phase)
   /// Done, but the object resisted: the push stalled (no progress for stall_time) and the robot backed off.
@@ -373,6 +373,7 @@ class PushController {
   double approach_length_ = 0, total_length_ = 0;
   double elapsed_ = 0, best_along_ = 0, since_progress_ = 0, progress_ = 0;
   bool blocked_ = false;
+  double pushed_most_ = 0;  // m, the farthest the robot got past the contact pose while pushing
   Velocity2D last_command_;
   std::string reason_;
 };

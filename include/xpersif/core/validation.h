@@ -22,6 +22,13 @@ class ValidationError : public std::invalid_argument {
   explicit ValidationError(const std::string& what) : std::invalid_argument(what) {}
 };
 
+/// Thrown when the work cannot be done *yet* (no learned model has arrived, a service it needs is not offered):
+/// a caller may retry. At the ROS boundary it becomes ResultCode UNAVAILABLE.
+class UnavailableError : public std::runtime_error {
+ public:
+  explicit UnavailableError(const std::string& what) : std::runtime_error(what) {}
+};
+
 /// Throw ValidationError(message) unless message is empty.
 void throwIfInvalid(const std::string& message);
 
