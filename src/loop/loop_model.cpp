@@ -633,7 +633,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     publishProgress(&context);
   }
   for (std::uint32_t g = start.response.goals_done; g < goal.goals; ++g) {
-    why = gate(context, false);
+    why = gate(context, goal.confirm_each);  // sliding autonomy holds in both phases
     if (!why.empty()) return ended(why);
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);

@@ -373,13 +373,19 @@ void XPerSim::publishFrameLocked() {
   rosgraph_msgs::Clock clock;
   clock.clock = stamp;
   clock_pub_.publish(clock);
+  // A frame published between two ticks (set_pose, paused or in lockstep) would repeat the last frame's stamp,
+  // and tf2 drops repeated data: viewers would keep showing the old pose. One nanosecond later, it is kept.
+  ros::Time tf_stamp = stamp;
+  // (A clock set back on purpose, a reset, moves by more than a millisecond and is taken as it is.)
+  if (tf_stamp <= last_tf_stamp_ && (last_tf_stamp_ - tf_stamp).toSec() < 1e-3) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1);
+  last_tf_stamp_ = tf_stamp;
   tf2_msgs::TFMessage frame;
   const core::FrameTransforms transforms = world_->dynamicTransforms();
   frame.transforms.reserve(transforms.size());
   for (const auto& node : world_->scene().nodes) {
     if (!node.dynamic) continue;
     geometry_msgs::TransformStamped t;
-    t.header.stamp = stamp;
+    t.header.stamp = tf_stamp;
     t.header.frame_id = node.parent;
     t.child_frame_id = node.name;
     t.transform = toTransformMsg(transforms.at(node.name));

@@ -107,6 +107,7 @@ class XPerSim : public Component {
   std::thread thread_;
 
   // ROS handles last (destroyed first).
+  ros::Time last_tf_stamp_;  // frames between ticks get strictly later stamps (publishFrameLocked)
   ros::Publisher clock_pub_, tf_pub_, tf_static_pub_, scene_pub_, markers_pub_, ground_truth_pub_, odom_pub_,
       ir_pub_, joints_pub_, tick_pub_;
   ros::Subscriber cmd_vel_sub_, wheel_speeds_sub_, lockstep_done_sub_;
