@@ -347,11 +347,7 @@ RunInfo KnowledgeBase::createRun(const std::string& name, const std::string& par
   Transaction transaction(*this);
   Statement insert(*this, "INSERT INTO runs(name, status, parameters, seed, design) VALUES (?, 'running', ?, ?, ?)");
   insert.bind(name).bind(parameters_json).bind(seed).bind(design).run();
-  const std::int64_t id = sqlite3_last_insert_rowid(db_);
-  Statement select(*this, (std::string(kRunColumns) + "WHERE id = ?").c_str());
-  select.bind(id);
-  select.step();
-  RunInfo run = readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
+  RunInfo run = readRunLocked(sqlite3_last_insert_rowid(db_));
   transaction.commit();
   return run;
 }
@@ -375,12 +371,16 @@ std::optional<RunInfo> KnowledgeBase::resumeRun(const std::string& name) {
   }
   Statement update(*this, "UPDATE runs SET status = 'running', finished = NULL WHERE id = ?");
   update.bind(id).run();
-  Statement select(*this, (std::string(kRunColumns) + "WHERE id = ?").c_str());
-  select.bind(id);
-  select.step();
-  RunInfo run = readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
+  RunInfo run = readRunLocked(id);
   transaction.commit();
   return run;
+}
+
+RunInfo KnowledgeBase::readRunLocked(std::int64_t run_id) {
+  Statement select(*this, (std::string(kRunColumns) + "WHERE id = ?").c_str());
+  select.bind(run_id);
+  if (!select.step()) throw KnowledgeBaseError("run " + std::to_string(run_id) + " vanished from '" + path_ + "'");
+  return readRun([&](int c) { return select.integer(c); }, [&](int c) { return select.text(c); });
 }
 
 std::optional<RunInfo> KnowledgeBase::run(std::int64_t run_id) {

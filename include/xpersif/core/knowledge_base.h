@@ -163,6 +163,8 @@ class KnowledgeBase {
   class Transaction;
   void initialize();
   void requireRun(std::int64_t run_id);
+  /// The run @p run_id, which must exist (callers hold mutex_).
+  RunInfo readRunLocked(std::int64_t run_id);
   void fault(const char* point);
   std::string fail(const std::string& what) const;  // composes what + SQLite's message
 
