@@ -48,8 +48,12 @@ LockstepClient::Tick LockstepClient::join(double timeout) {
   std::lock_guard<std::mutex> lock(mutex_);
   joined_ = true;
   Tick now{call.response.tick, call.response.phase, call.response.stamp, {}, false, 0.0};
-  // An actor joining while the ACT phase runs is not owed a report for it, but may report it to ask for time.
-  if (call.response.phase == LockstepTick::SENSE) now.phase = LockstepTick::SENSE;
+  if (!sensor_) {
+    // An actor first acts in the ACT phase after a SENSE phase (core/lockstep.h): the current tick's when it
+    // joined in SENSE, the next tick's when it joined in ACT. That tick, in SENSE: reportAndWait() waits for it.
+    if (call.response.phase == LockstepTick::ACT) ++now.tick;
+    now.phase = LockstepTick::SENSE;
+  }
   return now;
 }
 
@@ -85,7 +89,7 @@ void LockstepClient::report(const Tick& tick, bool wants_time, bool published, c
 std::optional<LockstepClient::Tick> LockstepClient::reportAndWait(const Tick& tick, const Command& command,
                                                                   const std::function<bool()>& stop, double timeout) {
   std::unique_lock<std::mutex> lock(mutex_);
-  // Joined during a SENSE phase: the ACT phase of the same tick is the first one owed.
+  // A SENSE tick (from join()) owes nothing yet: wait for its ACT phase.
   if (tick.phase == LockstepTick::ACT) {
     lock.unlock();
     report(tick, true, false, command);

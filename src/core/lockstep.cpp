@@ -10,11 +10,14 @@ LockstepCoordinator::LockstepCoordinator(double timeout) : timeout_(timeout) {
   requirePositive("lockstep timeout", timeout);
 }
 
-void LockstepCoordinator::join(const std::string& name, Role role, double now) {
+void LockstepCoordinator::join(const std::string& name, Role role) {
   if (name.empty()) throw ValidationError("a lockstep participant needs a name");
   roles_[name] = role;
-  // Its time to answer starts now, not when the phase started (a phase may have waited a while for others).
-  if (role == Role::Actor && phase_ == Phase::Act) owed_.emplace(name, now);
+  // An actor's first report is for the ACT phase of the next tick to start (or of this one, joining in SENSE),
+  // so its first command always follows a SENSE phase that saw the world as it is now. Had it acted on the
+  // current ACT phase, it would have seen whatever the sensors last published: a frame of the standing world
+  // when an idle tick happened to pass before the join, an older frame otherwise (issue 13: one take in ten).
+  if (role == Role::Actor && phase_ == Phase::Act) awaits_tick_ = true;
 }
 
 bool LockstepCoordinator::leave(const std::string& name) {
@@ -49,6 +52,7 @@ void LockstepCoordinator::startTick(std::uint64_t tick, double now, double physi
   tick_ = tick;
   phase_ = Phase::Sense;
   wants_time_ = false;
+  awaits_tick_ = false;
   published_.clear();
   command_ = {};
   owe(Role::Sensor, now);

@@ -22,14 +22,12 @@ std::string ControlTicker::start() {
   last_ = ros::Time::now();
   if (!lockstep_) return "";
   try {
+    // The first command is for the ACT phase of the tick join() names: its sensing saw the world as it is
+    // now, whichever phase the join landed in and however long the clock stood idle before.
     tick_ = lockstep_->join();
-    // Joined while sensors still work on this tick: the first command is for its ACT phase. Waiting for it
-    // here makes the first update see the same tick (and dt) whichever phase the join happened to land in.
-    if (tick_->phase == LockstepTick::SENSE) {
-      auto act = lockstep_->reportAndWait(*tick_, {}, {});
-      if (!act) return "left the lockstep clock before its first tick";
-      tick_ = act;
-    }
+    auto act = lockstep_->reportAndWait(*tick_, {}, {});
+    if (!act) return "left the lockstep clock before its first tick";
+    tick_ = act;
     last_ = tick_->stamp;
   } catch (const std::exception& e) {
     return e.what();

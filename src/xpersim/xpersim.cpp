@@ -139,8 +139,7 @@ void XPerSim::declareOperations() {
         if (request.join) {
           lockstep_->join(request.participant, request.role == Lockstep::Request::SENSOR
                                                    ? core::LockstepCoordinator::Role::Sensor
-                                                   : core::LockstepCoordinator::Role::Actor,
-                         ros::WallTime::now().toSec());
+                                                   : core::LockstepCoordinator::Role::Actor);
         } else {
           if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
         }
@@ -535,7 +534,7 @@ void XPerSim::lockstepLoop() {
     // Idle ticks are for participants' timers: with nobody taking part, time moves only through ~step.
     const bool complete = lockstep_->phase() == Phase::Act && lockstep_->phaseComplete() && !paused_ &&
                           (lockstep_->wantsTime() || !lockstep_->participants().empty());
-    if (complete && !lockstep_->wantsTime() && now - last_tick_wall_ < idle_period_) {
+    if (complete && !lockstep_->wantsTime() && !lockstep_->awaitsTick() && now - last_tick_wall_ < idle_period_) {
       lockstep_wake_.wait_for(lock, std::chrono::duration<double>(idle_period_ - (now - last_tick_wall_)));
       continue;
     }

@@ -132,8 +132,7 @@ class GoodActor {
     }
     const Lockstep::Response r = callLockstep(name_, Lockstep::Request::ACTOR, true);
     ASSERT_TRUE(r.success) << r.message;
-    // An actor joining during an ACT phase owes that phase's report at once (no tick message will ask for it).
-    if (r.phase == LockstepTick::ACT) report(r.tick);
+    // Its first report is owed in the next ACT phase after a SENSE phase; onTick() answers it.
   }
 
   void leave() {
@@ -293,8 +292,7 @@ class LockstepHungTest : public ::testing::Test {
 }  // namespace
 
 // A hung actor joins while the good actor is still thinking about the current tick (1 s, within its timeout): the
-// hung one owes that tick's ACT report from its join, and must get its whole timeout from then, not from the
-// phase's start.
+// hung one owes the next tick's ACT report, and gets its whole timeout from when that phase starts.
 TEST_F(LockstepHungTest, AHungActorIsDroppedWithinItsTimeoutAndTimeGoesOn) {
   GoodActor good(nh_, "good_actor");
   ASSERT_NO_FATAL_FAILURE(good.join());
@@ -315,11 +313,11 @@ TEST_F(LockstepHungTest, AHungActorIsDroppedWithinItsTimeoutAndTimeGoesOn) {
   ASSERT_TRUE(joined.success) << joined.message;
   ASSERT_EQ(joined.tick, held.tick);
   ASSERT_EQ(joined.phase, LockstepTick::ACT);
-  EXPECT_FALSE(joined.complete) << "the hung actor owes this ACT phase from its join";
+  EXPECT_FALSE(joined.complete) << "the good actor still owes this ACT phase";
   good.release();
 
-  // (a) The drop, named on ~events, no earlier than the timeout after the hung actor's first owed report (its
-  // join) and no later than timeout + kMargin.
+  // (a) The drop, named on ~events, no earlier than the timeout after the hung actor's first owed report (the
+  // next tick's ACT phase, which starts once the good actor answers) and no later than timeout + kMargin.
   const auto dropped = dropEvent(hung, timeout_ + kMargin + 5.0);
   ASSERT_TRUE(dropped) << "no drop of " << hung << " on " << kSim << "/events";
   const double noticed = dropped->wall - before_join;
@@ -330,11 +328,11 @@ TEST_F(LockstepHungTest, AHungActorIsDroppedWithinItsTimeoutAndTimeGoesOn) {
   EXPECT_EQ(dropped->message.kind, ComponentEvent::OPERATION);
   EXPECT_GE(noticed, timeout_) << "dropped before its timeout";
   EXPECT_LE(dropped->wall - after_join, timeout_ + kMargin) << "dropped much later than its timeout";
-  EXPECT_EQ(droppedAtTick(dropped->message.reason), static_cast<long long>(held.tick)) << dropped->message.reason;
+  EXPECT_EQ(droppedAtTick(dropped->message.reason), static_cast<long long>(held.tick + 1)) << dropped->message.reason;
   EXPECT_FALSE(dropEvent(good.name(), 0.0)) << "the good actor answered in time and must not be dropped";
 
   expectStatusNames(hung);
-  expectTimeGoesOnWithout(hung, good.name(), held.tick, held.stamp);
+  expectTimeGoesOnWithout(hung, good.name(), held.tick + 1, held.stamp);
   EXPECT_EQ(good.missing(), 0) << "the good actor was dropped at some tick";
   EXPECT_FALSE(dropEvent(good.name(), 0.0));
   good.leave();

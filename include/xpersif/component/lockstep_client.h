@@ -51,7 +51,8 @@ class LockstepClient {
   bool enabled() const { return enabled_; }
   const std::string& name() const { return name_; }
 
-  /// Join the clock; the current tick. @throws std::runtime_error with a sentence when the simulator refuses
+  /// Join the clock. A sensor gets the current tick; an actor the tick whose ACT phase it first owes, marked
+  /// SENSE (pass it to reportAndWait()). @throws std::runtime_error with a sentence when the simulator refuses
   Tick join(double timeout = 10.0);
   /// Leave (no-op when not joined). Never throws.
   void leave();

@@ -11,8 +11,11 @@
  * or someone asked for simulated time): an idle loop leaves simulated time where it is, so how long the loop
  * thinks between experiments (wall time) never changes what the physics does.
  *
- * A participant that does not report within the timeout (wall seconds, from when its report became owed: the
- * start of the phase, or its join for an actor joining during an ACT phase) is dropped: the run goes on without
+ * A participant joins between ticks: a sensor first reports in the next SENSE phase; an actor in the next ACT
+ * phase after a SENSE phase (the current tick's, joining in SENSE; the next tick's, joining in ACT), so that its
+ * first command always follows sensing of the world as it is, however long the clock stood idle before.
+ *
+ * A participant that does not report within the timeout (wall seconds, from the start of the phase) is dropped: the run goes on without
  * it and the caller reports that. Not thread-safe: one owner.
  */
 #pragma once
@@ -40,10 +43,13 @@ class LockstepCoordinator {
   /// @param timeout wall seconds a participant has to report for a phase. @throws ValidationError if not > 0
   explicit LockstepCoordinator(double timeout);
 
-  /// A participant joins (or re-joins with another role) at wall time @p now. An actor joining in an ACT phase
-  /// owes that phase's report at once (so no tick, not even an idle one, starts before its first command); a
-  /// sensor owes reports from the next tick. @throws ValidationError for an empty name
-  void join(const std::string& name, Role role, double now = 0);
+  /// A participant joins (or re-joins with another role). It owes nothing in the current
+  /// phase: a sensor first reports in the next SENSE phase, an actor in the next ACT phase that follows a SENSE
+  /// phase. An actor joining in an ACT phase makes awaitsTick() true. @throws ValidationError for an empty name
+  void join(const std::string& name, Role role);
+  /// An actor joined in this ACT phase and waits for the next tick: start it without an idle pause (an idle
+  /// tick, unless someone wants time).
+  bool awaitsTick() const { return awaits_tick_; }
   /// A participant leaves; a phase waiting only for it completes. True when it was the last actor to drive the
   /// robot: the caller then stops the robot (a controller that is gone commands nothing).
   bool leave(const std::string& name);
@@ -94,6 +100,7 @@ class LockstepCoordinator {
   std::uint64_t tick_ = 0;
   Phase phase_ = Phase::Act;  // tick 0 is complete: nothing is owed until the first tick starts
   bool wants_time_ = false;
+  bool awaits_tick_ = false;
   std::uint64_t requested_ = 0;
   Command command_;
   std::string driver_;  // the actor whose command the robot follows
