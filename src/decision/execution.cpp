@@ -254,11 +254,11 @@ std::string Execution::getFeatures(ExecutePlan::Context& context, const std::str
       why = "the call of " + resolved + " failed";
     } else if (!call.response.success) {
       why = resolved + " refused: " + call.response.message;
-    } else if (!last_command_end_.isZero() && call.response.features.header.stamp <= last_command_end_) {
+    } else if (call.response.features.header.stamp <= observe_after_) {
       why = "the feature vector of " + resolved + " (stamp " +
             core::describeNumber(call.response.features.header.stamp.toSec()) +
-            " s) is not newer than the end of the last command (" + core::describeNumber(last_command_end_.toSec()) +
-            " s)";
+            " s) is not newer than the plan's start or its last command's end (" +
+            core::describeNumber(observe_after_.toSec()) + " s)";
     } else {
       result.observations.push_back(call.response.features);
       return "";
@@ -293,7 +293,7 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
       return "interface type '" + step.interface_type + "' cannot be executed";
     }
     // The scene may have changed even when the command failed: later observations must be newer.
-    last_command_end_ = ros::Time::now();
+    observe_after_ = ros::Time::now();
     if (why.empty()) result.robot_poses.push_back(final_pose);
     return why;
   } catch (const std::exception& e) {
@@ -303,7 +303,9 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
 
 CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResult& result) {
   const ExecutePlanGoal& goal = context.goal();
-  last_command_end_ = ros::Time();
+  // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
+  // behind the camera, so its latest vector may be older (under load, a frame from before the scene was arranged).
+  observe_after_ = ros::Time::now();
   for (std::size_t i = 0; i < goal.steps.size(); ++i) {
     const PlanStep& step = goal.steps[i];
     const std::string text = stepText(step);

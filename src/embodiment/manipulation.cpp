@@ -210,10 +210,22 @@ std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, co
 
 CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   const PushGoal& goal = context.goal();
+  // The overhead camera's view after the push is part of the result: the clock waits for its frames.
+  auto stopping = [&] { return context.stopRequested(); };
+  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, true, nodeHandle().resolveName("observation"),
+                       [this](const core::Velocity2D& v) { publishVelocity(v); });
+  std::string why = ticker.start();
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot take part in the lockstep clock: " + why);
+  // Plan from the first tick's sensing, never from whatever frame came last before the join: in lockstep that
+  // frame may be older than the world (issue 13).
+  why = ticker.sense();
   core::PushPlan plan;
   core::PathResult path;
-  std::string why = planFor(goal, &plan, &path);
-  if (!why.empty()) return CommandOutcome::aborted(result.message = why);
+  if (why.empty()) why = planFor(goal, &plan, &path);
+  if (!why.empty()) {
+    ticker.finish();
+    return CommandOutcome::aborted(result.message = why);
+  }
   core::Obstacle before;
   observedObject(goal.object, observation_max_age_, &before);
   result.object_before = toMsg(before.x, before.y, before.yaw);
@@ -228,12 +240,6 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   controller.start(plan, path.waypoints);
   bool blocked = false;
   double pushed = 0;
-  // The overhead camera's view after the push is part of the result: the clock waits for its frames.
-  auto stopping = [&] { return context.stopRequested(); };
-  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, true, nodeHandle().resolveName("observation"),
-                       [this](const core::Velocity2D& v) { publishVelocity(v); });
-  why = ticker.start();
-  if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot take part in the lockstep clock: " + why);
   core::Pose2D pose;
   while (true) {
     if (context.stopRequested()) {

@@ -217,14 +217,25 @@ std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path)
 }
 
 template <class Context, class Controller, class Record>
-CommandOutcome Relocation::drive(Context& context, const std::string& pose_source, Controller& controller,
-                                 Record record, std::string& message) {
+CommandOutcome Relocation::drive(Context& context, const std::string& pose_source, bool sees_objects,
+                                 const std::function<std::string()>& plan, Controller& controller, Record record,
+                                 std::string& message) {
   const std::uint64_t stop_generation = stop_generation_;
   auto stopping = [&] { return context.stopRequested() || stop_generation_ != stop_generation; };
-  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, pose_source == "observation",
+  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, pose_source == "observation" || sees_objects,
                        nodeHandle().resolveName("observation"), [this](const core::Velocity2D& v) { publishVelocity(v); });
   std::string why = ticker.start();
   if (!why.empty()) return CommandOutcome::aborted(message = "cannot take part in the lockstep clock: " + why);
+  if (plan) {
+    // Plan from the first tick's sensing, never from whatever frame came last before the join: in lockstep that
+    // frame may be older than the world (issue 13).
+    why = ticker.sense();
+    if (why.empty()) why = plan();
+    if (!why.empty()) {
+      ticker.finish();
+      return CommandOutcome::aborted(message = why);
+    }
+  }
   core::Pose2D pose;
   while (true) {
     if (stopping()) {
@@ -253,11 +264,14 @@ CommandOutcome Relocation::drive(Context& context, const std::string& pose_sourc
 
 CommandOutcome Relocation::goTo(GoToPose::Context& context, GoToPoseResult& result) {
   const GoToPoseGoal& goal = context.goal();
-  core::PathResult path;
-  const std::string why = planTo(goal, &path);
-  if (!why.empty()) return CommandOutcome::aborted(result.message = "no path: " + why);
   core::PathFollower follower(limits(), options_);
-  follower.setPath(path.waypoints);
+  auto plan = [&]() -> std::string {
+    core::PathResult path;
+    const std::string why = planTo(goal, &path);
+    if (!why.empty()) return "no path: " + why;
+    follower.setPath(path.waypoints);
+    return "";
+  };
   auto record = [&](const core::Pose2D& pose, const core::MotionFeedback& fb) {
     result.final_pose = toMsg(pose);
     result.position_error = std::hypot(goal.target.x - pose.x, goal.target.y - pose.y);
@@ -271,7 +285,7 @@ CommandOutcome Relocation::goTo(GoToPose::Context& context, GoToPoseResult& resu
     feedback.yaw_error = fb.yaw_error;
     context.publishFeedback(feedback);
   };
-  return drive(context, goal.pose_source, follower, record, result.message);
+  return drive(context, goal.pose_source, !goal.straight, plan, follower, record, result.message);
 }
 
 CommandOutcome Relocation::turnTo(TurnTo::Context& context, TurnToResult& result) {
@@ -288,7 +302,7 @@ CommandOutcome Relocation::turnTo(TurnTo::Context& context, TurnToResult& result
     feedback.yaw_error = fb.yaw_error;
     context.publishFeedback(feedback);
   };
-  return drive(context, goal.pose_source, controller, record, result.message);
+  return drive(context, goal.pose_source, false, nullptr, controller, record, result.message);
 }
 
 }  // namespace xpersif

@@ -236,8 +236,11 @@ void LoopModel::publishProgress(Run::Context* context) {
   if (context) context->publishFeedback(progress);
 }
 
-bool LoopModel::getScene(FeatureVector* scene, std::string* why, double newer_than) {
+bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
   Spending spending(wall_spent_, "scene");
+  // The scene as it is now: VISION works behind the camera, so its latest vector may show an older world (in
+  // lockstep the next idle tick brings a frame of the standing world).
+  const double newer_than = ros::Time::now().toSec();
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
   while (ros::ok()) {
     GetFeatures features;
@@ -264,10 +267,11 @@ const core::SetupCatalogue& LoopModel::catalogue() {
   return *catalogue_;
 }
 
-void LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
+int LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
   Spending spending(wall_spent_, "tidy");
   std::mt19937_64 rng(stream);
   std::vector<std::string> misplaced;
+  int moved = 0;
   std::vector<std::pair<double, double>> occupied;
   for (const auto& o : scene.objects) occupied.emplace_back(o.position.x, o.position.y);
   if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
@@ -275,14 +279,14 @@ void LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
     catalogue();
   } catch (const std::exception& e) {
     ROS_WARN("%s: cannot tidy the arena: %s", name().c_str(), e.what());
-    return;
+    return 0;
   }
   const double margin = tidy_margin_ >= 0 ? tidy_margin_ : catalogue_->wallMargin();
   const double spacing = tidy_spacing_ >= 0 ? tidy_spacing_ : catalogue_->objectSpacing();
   const double hx = catalogue_->arena_size_x / 2 - margin, hy = catalogue_->arena_size_y / 2 - margin;
   if (hx <= 0 || hy <= 0) {
     ROS_WARN("%s: cannot tidy the arena: a margin of %.3f m from the walls leaves no room", name().c_str(), margin);
-    return;
+    return 0;
   }
   const std::vector<std::string> names = catalogue_->names();
   for (const auto& name : names) {
@@ -325,10 +329,12 @@ void LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
         events().publish(events().make(ComponentEvent::SUPERVISION, "tidy", "ok",
                                        "put " + name + " back at (" + literalNumber(x) + ", " + literalNumber(y) + ")"));
         occupied.emplace_back(x, y);
+        ++moved;
       }
       break;
     }
   }
+  return moved;
 }
 
 std::string LoopModel::arrangeInitialScene() {
@@ -572,8 +578,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
     if (tidy_) {
-      tidyArena(scene, core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Tidy));
-      if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
+      if (tidyArena(scene, core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Tidy)) > 0 &&
+          !getScene(&scene, &why)) {
+        return ended("cannot observe the scene: " + why);
+      }
     }
     Experiment experiment;
     std::string design = goal.design;
@@ -640,8 +648,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     // Goal g's choices are numbered after the experiments, so that they never share a stream with them.
     const std::uint64_t goal_index = goal.experiments + g;
     if (tidy_) {
-      tidyArena(scene, core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Tidy));
-      if (!getScene(&scene, &why, ros::Time::now().toSec())) return ended("cannot observe the scene: " + why);
+      if (tidyArena(scene, core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Tidy)) > 0 &&
+          !getScene(&scene, &why)) {
+        return ended("cannot observe the scene: " + why);
+      }
     }
     DesignGoal design;
     design.request.scene = scene;

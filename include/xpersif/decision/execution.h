@@ -77,7 +77,7 @@ class Execution : public Component {
   double fresh_timeout_ = 5.0;
   double server_timeout_ = 10.0;
   double step_timeout_ = 300.0;
-  ros::Time last_command_end_;  // only touched by the command thread
+  ros::Time observe_after_;  // observations must be newer: the plan's start, then its last command's end (command thread)
   std::map<std::string, std::shared_ptr<void>> clients_;  // action name -> SimpleActionClient<Action>
 };
 

@@ -19,6 +19,7 @@
 #include <std_srvs/Trigger.h>
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <mutex>
 
@@ -48,11 +49,13 @@ class Relocation : public Component {
   /// The path to @p target from the current pose: "" and the plan, or why there is none.
   std::string planTo(const GoToPoseGoal& goal, core::PathResult* path) const;
   CommandOutcome goTo(GoToPose::Context& context, GoToPoseResult& result);
-  /// The closed loop both commands run: every control period read the pose, let @p controller choose the
-  /// velocity, send it and @p record it (result, feedback); ends on done, failure, cancel, stop or shutdown,
-  /// always with a zero velocity sent. @p message gets the outcome's sentence.
+  /// The closed loop both commands run: @p plan (if any; "" or why not) once the first tick's sensing is in
+  /// (@p sees_objects: that includes the overhead camera's frame), then every control period read the pose, let
+  /// @p controller choose the velocity, send it and @p record it (result, feedback); ends on done, failure,
+  /// cancel, stop or shutdown, always with a zero velocity sent. @p message gets the outcome's sentence.
   template <class Context, class Controller, class Record>
-  CommandOutcome drive(Context& context, const std::string& pose_source, Controller& controller, Record record,
+  CommandOutcome drive(Context& context, const std::string& pose_source, bool sees_objects,
+                       const std::function<std::string()>& plan, Controller& controller, Record record,
                        std::string& message);
   CommandOutcome turnTo(TurnTo::Context& context, TurnToResult& result);
   void publishVelocity(const core::Velocity2D& velocity);

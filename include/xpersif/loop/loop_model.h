@@ -71,7 +71,7 @@ class LoopModel : public Supervisor {
   void publishProgress(Run::Context* context);
   /// Put cubes pushed against the walls or out of sight back at free spots.
   /// Put misplaced objects back at random free places drawn from @p stream (core::streamSeed).
-  void tidyArena(const FeatureVector& scene, std::uint64_t stream);
+  int tidyArena(const FeatureVector& scene, std::uint64_t stream);  ///< how many objects it moved
   /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
   /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
   const core::SetupCatalogue& catalogue();
@@ -79,7 +79,7 @@ class LoopModel : public Supervisor {
   std::uint32_t modelSamples();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
-  bool getScene(FeatureVector* scene, std::string* why, double newer_than = 0);
+  bool getScene(FeatureVector* scene, std::string* why);
   void waitForLearning(std::uint32_t samples, Run::Context& context);
 
   std::mutex mutex_;
