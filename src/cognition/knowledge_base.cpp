@@ -223,10 +223,13 @@ void KnowledgeBaseComponent::onConfigure() {
   } catch (const std::exception& e) {
     throw std::runtime_error("~database " + path + " cannot be used: " + e.what());
   }
+  // Restarted (after a crash, or by a supervisor), it goes on with the latest run as the current one, so that a
+  // caller asking for run 0 keeps getting the run it started.
+  const std::vector<core::RunInfo> runs = kb->runs();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     kb_ = std::move(kb);
-    current_run_ = 0;
+    current_run_ = runs.empty() ? 0 : runs.back().id;
     model_topic_ = model_topic;
     notions_topic_ = notions_topic;
     if (!experiments_pub_) {

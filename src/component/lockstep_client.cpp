@@ -17,8 +17,14 @@ LockstepClient::LockstepClient(ros::NodeHandle nh, const ros::NodeHandle& privat
   enabled_ = ros::param::get(xpersim_ + "/clock_mode", mode) && mode == "lockstep";
   if (!enabled_) return;
   done_pub_ = nh_.advertise<LockstepDone>(xpersim_ + "/lockstep_done", 100);
-  tick_sub_ = nh_.subscribe<LockstepTick>(xpersim_ + "/tick", 100, &LockstepClient::onTickMessage, this,
-                                          ros::TransportHints().tcpNoDelay());
+  // Its own queue and thread: a tick waits for no other callback of the manager (a cold start once kept every
+  // worker busy for 10 s, the participant was dropped and the settling scene got other physics: issue 13).
+  ros::NodeHandle tick_nh(nh_);
+  tick_nh.setCallbackQueue(&tick_queue_);
+  tick_sub_ = tick_nh.subscribe<LockstepTick>(xpersim_ + "/tick", 100, &LockstepClient::onTickMessage, this,
+                                              ros::TransportHints().tcpNoDelay());
+  tick_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &tick_queue_);
+  tick_spinner_->start();
 }
 
 LockstepClient::~LockstepClient() { leave(); }

@@ -461,6 +461,21 @@ ExperimentRecord KnowledgeBase::recordExperiment(const ExperimentRecord& record)
     }
   }
   ExperimentRecord stored = record;
+  {
+    // A call repeated because its answer was lost (the manager died after the commit) stores nothing twice: the
+    // same push of the same run, started and finished at the same simulated times, is answered with its row.
+    Statement same(*this,
+                   "SELECT id, seq FROM experiments WHERE run_id = ? AND started = ? AND finished = ? AND object = ? "
+                   "AND side = ? AND push_offset = ? AND distance = ? AND status = ? AND (? = 0 OR seq = ?)");
+    same.bind(record.run_id).bind(record.started).bind(record.finished).bind(record.experiment.object);
+    same.bind(record.experiment.side).bind(record.experiment.offset).bind(record.experiment.distance);
+    same.bind(record.status).bind(static_cast<std::int64_t>(record.seq)).bind(static_cast<std::int64_t>(record.seq));
+    if (same.step()) {
+      stored.id = same.integer(0);
+      stored.seq = same.integer(1);
+      return stored;  // the transaction rolls back: nothing was written
+    }
+  }
   if (stored.seq == 0) {
     Statement next(*this, "SELECT coalesce(max(seq), 0) + 1 FROM experiments WHERE run_id = ?");
     next.bind(record.run_id).step();

@@ -450,6 +450,7 @@ TEST(KnowledgeBase, ThreadsShareOneKnowledgeBase) {
       for (int i = 0; i < 25; ++i) {
         ExperimentRecord r = experimentNumber(run.id, 1);
         r.experiment.offset = 0.001 * t;
+        r.started = 100 * t + i;  // distinct experiments (an identical one is a repeated call: stored once)
         kb->recordExperiment(r);
         kb->experimentCount(run.id);
       }
@@ -517,6 +518,30 @@ TEST(KnowledgeBase, CorruptedPagesAreFoundAtOpen) {
   EXPECT_TRUE(error.find("is corrupted") != std::string::npos ||
               error.find("is not an SQLite database") != std::string::npos)
       << error;
+}
+
+TEST(KnowledgeBase, ARepeatedRecordCallStoresTheExperimentOnce) {
+  TempDir dir;
+  auto kb = KnowledgeBase::open(dir.file("kb.sqlite"));
+  const RunInfo run = kb->createRun("retry", "{}", 1, "random");
+  const ExperimentRecord first = kb->recordExperiment(experimentNumber(run.id, 1));
+  // The caller never heard the answer (the manager was killed after the commit) and calls again.
+  const ExperimentRecord again = kb->recordExperiment(experimentNumber(run.id, 1));
+  EXPECT_EQ(again.seq, first.seq);
+  EXPECT_EQ(again.id, first.id);
+  ExperimentRecord explicit_seq = experimentNumber(run.id, 1);
+  explicit_seq.seq = first.seq;
+  EXPECT_EQ(kb->recordExperiment(explicit_seq).id, first.id);
+  EXPECT_EQ(kb->experimentCount(run.id), 1);
+  // Another push at other times is another experiment, and one that only shares the seq is refused.
+  ExperimentRecord later = experimentNumber(run.id, 1);
+  later.started += 10;
+  later.finished += 10;
+  EXPECT_EQ(kb->recordExperiment(later).seq, first.seq + 1);
+  later.started += 10;
+  later.seq = first.seq;
+  EXPECT_THROW(kb->recordExperiment(later), ValidationError);
+  EXPECT_EQ(kb->experimentCount(run.id), 2);
 }
 
 TEST(KnowledgeBase, ResumeContinuesTheLatestUnfinishedRunOfThatName) {

@@ -7,15 +7,18 @@
  * Actors (controllers) run a command as: join() → compute at the returned tick → reportAndWait(command) →
  * compute at the next tick → ... → finish() (a last report that wants no more time, then leave). Sensors
  * (cameras) join once and report each SENSE tick from onTick()'s callback. Waiting is on a condition variable
- * woken by the tick subscriber: nothing polls.
+ * woken by the tick subscriber: nothing polls. Ticks are heard on a thread of the client's own, so a busy
+ * nodelet manager (every worker in a long callback) never delays a participant's report.
  */
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -67,12 +70,13 @@ class LockstepClient {
   /// Let @p duration of simulated time pass: in lockstep, take part as an actor that wants time until it has
   /// passed (time never passes on its own there); otherwise sleep on ROS time. False when @p stop says so.
   bool sleepFor(const ros::Duration& duration, const std::function<bool()>& stop = nullptr);
-  /// Sensor: called (in the subscriber's thread) for every SENSE tick while joined; it must call report().
+  /// Sensor: called (in the client's own tick thread) for every SENSE tick while joined; it must call report().
   void onTick(std::function<void(const Tick&)> callback);
 
  private:
   void onTickMessage(const LockstepTick::ConstPtr& message);
 
+  ros::CallbackQueue tick_queue_;  // first: destroyed last
   ros::NodeHandle nh_;
   std::string name_, xpersim_;
   bool sensor_ = false, enabled_ = false;
@@ -82,6 +86,7 @@ class LockstepClient {
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
   std::function<void(const Tick&)> on_tick_;
   ros::Publisher done_pub_;
+  std::unique_ptr<ros::AsyncSpinner> tick_spinner_;  // serves tick_queue_ only
   ros::Subscriber tick_sub_;  // last: destroyed first
 };
 
