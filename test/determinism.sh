@@ -10,7 +10,7 @@
 # (A whole system killed and restarted cannot resume deterministically yet: the world's state would have to be
 # restored from a checkpoint, bit for bit, with the physics clock; see the issue 13 note.)
 # Usage: determinism.sh [WORLD [DESIGN]]   (default: worlds/default.yaml, curiosity)
-# Not in the suite: about one take in ten still differs in the robot's pose after the first push (issue 13).
+# Not in the suite yet: 1 take in 28 still differed (a cold first start; issue 13 note).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 world=${1:-$repo/worlds/default.yaml}
@@ -50,8 +50,11 @@ take() {  # take NAME [resume|kill]
     xpersif run "${campaign[@]}" >"$work/$name.run1.log" 2>&1 &
     local runner=$!
     until [ "$(stored "$work/$name.db")" -ge "$stop_after" ] || ! kill -0 "$runner" 2>/dev/null; do sleep 0.2; done
-    local manager
-    manager=$(pgrep -f "__name:=kb_manager" | head -1)
+    local manager="" pid
+    # This take's manager: the one talking to this take's master (other systems may run on the machine).
+    for pid in $(pgrep -f "__name:=kb_manager"); do
+      tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
+    done
     [ -n "$manager" ] || { echo "determinism: no kb_manager process to kill"; exit 1; }
     kill -KILL "$manager"
     echo "determinism: $name: killed kb_manager (pid $manager) after $(stored "$work/$name.db") experiments"
