@@ -17,7 +17,7 @@ summary="$out/summary.md"
 for seed in "${seeds[@]}"; do
   run_dir="$out/seed-$seed"
   rm -rf "$run_dir"
-  XPERSIF_RUN_DIR="$run_dir" bash "$repo/scripts/run.sh" --seed "$seed" >"$out/seed-$seed.log" 2>&1 || {
+  XPERSIF_RUN_DIR="$run_dir" bash "$repo/scripts/run.sh" --set seed="$seed" >"$out/seed-$seed.log" 2>&1 || {
     echo "seed $seed failed; see $out/seed-$seed.log" >&2
     continue
   }
@@ -27,7 +27,7 @@ for seed in "${seeds[@]}"; do
   reach=$(sed -n 's/^- curiosity reaches it after \(.*\)$/\1/p' "$report")
   cfinal=$(awk -F'|' '/^\| [0-9]+ \|/ && $3 ~ /[0-9]/ {v=$3} END {gsub(/ /, "", v); print v}' "$report")
   goals=$(sed -n 's/^Success rate: \(.*\) goals reached.*/\1/p' "$report")
-  took=$(sed -n 's/.*the default experiment took \([0-9]*\) s.*/\1/p' "$out/seed-$seed.log")
+  took=$(sed -n 's/.* done in \([0-9]*\) s.*/\1/p' "$out/seed-$seed.log" | tail -1)
   echo "| $seed | $final | $n | $reach | $cfinal | $goals | $took |" >>"$summary"
 done
 cat "$summary"

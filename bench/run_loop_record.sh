@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Recording the full loop (issue 6): the main job (scripts/run.sh) with --record, measured from outside:
+# Recording the full loop (issue 6): the main job (scripts/run.sh) with recording on, measured from outside:
 # the recorder's CPU share (utime+stime of the `record` process over its life, sampled every second from
 # /proc until it exits; 100 % = one core), and bench/summarize_loop_record.py on the run directory
 # (messages per topic recorded vs published, /tf frames and feature/image seqs dropped, bytes per simulated s).
 #   bash bench/run_loop_record.sh OUT_DIR TAG RUN_SH_OPTIONS...     -> OUT_DIR/TAG.json, OUT_DIR/TAG.log
-# e.g. bash bench/run_loop_record.sh bench/results/loop-record lz4 --experiments 8 --evaluation 4 --goals 1 --record
+# e.g. bash bench/run_loop_record.sh bench/results/loop-record lz4 --set recording.mode=bags --set phases.0.experiments=4 \
+#      --set phases.1.experiments=8 --set phases.2.experiments=8 --set phases.2.goals=1
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 out=$(mkdir -p "$1" && cd "$1" && pwd); tag=$2; shift 2

@@ -69,6 +69,11 @@ LoopModel::LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
                }
                if (why.empty()) why = core::checkInRange("goal.experiments", g.experiments, 0, 100000);
                if (why.empty()) why = core::checkInRange("goal.goals", g.goals, 0, 10000);
+               if (why.empty()) why = core::checkMaxSize("goal.provenance", g.provenance.size(), 1 << 20);
+               // A cheap shape check; the knowledge base's json_valid is the full one.
+               if (why.empty() && !g.provenance.empty() && (g.provenance.front() != '{' || g.provenance.back() != '}')) {
+                 why = "goal.provenance must be a JSON object or empty";
+               }
                return why;
              })
       .check("idle(loop)", [this](const RunLoopGoal&) {
@@ -522,7 +527,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   start.request.resume = goal.resume;
   std::ostringstream parameters;
   parameters << "{\"experiments\":" << goal.experiments << ",\"goals\":" << goal.goals << ",\"design\":\"" << goal.design
-             << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\"}";
+             << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\"";
+  // The knowledge base refuses the run (INVALID, with its sentence) if this is not a JSON object.
+  if (!goal.provenance.empty()) parameters << ",\"provenance\":" << goal.provenance;
+  parameters << "}";
   start.request.parameters = parameters.str();
   std::string why = callPatiently(nodeHandle(), "knowledge_base/start_run", start);
   if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot start the run: " + why);

@@ -16,6 +16,10 @@
 #include <std_srvs/Trigger.h>
 
 #include <csignal>
+#include <ctime>
+#include <filesystem>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <fstream>
 
 #include "xpersif/core/perception.h"
@@ -41,6 +45,11 @@ const char* kUsage = R"(usage: xpersif <command> [arguments]
   contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
   check-world FILE                     check a world file without ROS: what the loop will be told about its
                                        objects and the limits derived from them; exit 2 with the reason
+  rerun RUN_DIR [--run-dir DIR] [KEY=VALUE...]
+                                       repeat the experiment of a run directory from what it stored
+                                       (RUN_DIR/experiment.yaml, its world and URDF) through
+                                       `roslaunch xpersif experiment.launch`, into DIR (default
+                                       RUN_DIR-rerun-<time>); exit status: the experiment's (0 done)
 
 The loop (LOOPMODEL at --loop, default /xpersif/loop_model):
   run NAME [--experiments N] [--goals N] [--design curiosity|random|grid] [--seed S] [--resume]
@@ -371,6 +380,75 @@ int checkWorld(const std::string& file) {
   }
 }
 
+/// `xpersif rerun`: experiment.launch pointed at the stored experiment, on the master of ROS_MASTER_URI (started
+/// by roslaunch when none runs there). The outcome is the runner's status file, since roslaunch exits 0 anyway.
+int rerun(const std::vector<std::string>& rest) {
+  std::string old_dir, new_dir;
+  std::vector<std::string> overrides;
+  for (std::size_t i = 0; i < rest.size(); ++i) {
+    if (rest[i] == "--run-dir" && i + 1 < rest.size()) {
+      new_dir = rest[++i];
+    } else if (old_dir.empty()) {
+      old_dir = rest[i];
+    } else {
+      overrides.push_back(rest[i]);
+    }
+  }
+  if (old_dir.empty()) {
+    std::cerr << "xpersif: rerun needs a run directory\n";
+    return 2;
+  }
+  // Absolute: the runner works in another directory.
+  old_dir = std::filesystem::absolute(old_dir).lexically_normal().string();
+  while (old_dir.size() > 1 && old_dir.back() == '/') old_dir.pop_back();
+  if (!new_dir.empty()) new_dir = std::filesystem::absolute(new_dir).lexically_normal().string();
+  const std::string experiment = old_dir + "/experiment.yaml";
+  if (!std::ifstream(experiment)) {
+    std::cerr << "xpersif: " << old_dir << " holds no experiment.yaml (was it run from an experiment file?)\n";
+    return 2;
+  }
+  if (new_dir.empty()) {
+    char stamp[32];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::localtime(&now));
+    new_dir = old_dir + "-rerun-" + stamp;
+  }
+  std::string joined;
+  for (const auto& o : overrides) joined += (joined.empty() ? "" : " ") + o;
+  const char* master = std::getenv("ROS_MASTER_URI");
+  const std::string uri = master ? master : "";
+  const std::string port = uri.substr(uri.rfind(':') + 1);
+  std::vector<std::string> args = {"roslaunch"};
+  if (!port.empty() && uri.rfind(':') != std::string::npos) args.insert(args.end(), {"-p", port});
+  args.insert(args.end(), {"xpersif", "experiment.launch", "experiment:=" + experiment, "run_dir:=" + new_dir,
+                           "overrides:=" + joined});
+  std::cout << "xpersif: repeating " << experiment << " into " << new_dir << std::endl;
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execvp(argv[0], argv.data());
+    std::perror("xpersif: roslaunch");
+    ::_exit(127);
+  }
+  if (pid < 0) return 1;
+  std::signal(SIGINT, SIG_IGN);  // Ctrl-C reaches roslaunch, which stops the experiment; we wait for it
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return 2;  // the check refused the file: nothing started
+  std::ifstream outcome(new_dir + "/status");
+  int code = 1;
+  std::string sentence;
+  if (!(outcome >> code)) {
+    std::cerr << "xpersif: the rerun ended without an outcome in " << new_dir << "/status\n";
+    return 1;
+  }
+  std::getline(outcome, sentence);
+  std::cout << "xpersif: rerun:" << sentence << "\n";
+  return code;
+}
+
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || args[0] == "-h" || args[0] == "--help") {
@@ -400,6 +478,7 @@ int main(int argc, char** argv) {
     }
     return checkWorld(rest[0]);
   }
+  if (command == "rerun") return rerun(rest);
   ros::init(argc, argv, "xpersif_console", ros::init_options::AnonymousName | ros::init_options::NoSigintHandler);
   if (command == "wait") {
     // The system may still be starting: give the master the same time as the components.
