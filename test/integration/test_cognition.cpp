@@ -31,6 +31,7 @@
 #include "xpersif/StartRun.h"
 #include "xpersif/core/knowledge_base.h"
 #include "xpersif/core/motivation.h"
+#include "xpersif/core/gaussian_process_push_model.h"
 #include "xpersif/core/push_learner.h"
 
 using xpersif::ComponentStatus;
@@ -316,7 +317,13 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
         },
         30.0));
     ASSERT_TRUE(model.has_value());
-    EXPECT_EQ(model->format, xpersif::core::PushLearner::kFormat);
+    // The learner chosen by name (cognition_gp.test runs this test with the Gaussian process).
+    std::string learner_type = "random_forest";
+    ros::param::get("/machine_learning/learner_type", learner_type);
+    const std::string format = learner_type == "gaussian_process" ? xpersif::core::GaussianProcessPushModel::kFormat
+                                                                  : xpersif::core::PushLearner::kFormat;
+    EXPECT_EQ(models.messages().back().format, format);
+    EXPECT_EQ(model->format, format);
     EXPECT_EQ(model->blob, models.messages().back().data);
   }
 
