@@ -32,7 +32,8 @@ std::string MachineLearning::sampleOf(const ExperimentRecord& record, core::Push
 }
 
 MachineLearning::MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : Component(std::move(nh), std::move(private_nh), "xpersif/MachineLearningNodelet") {
+    : Component(std::move(nh), std::move(private_nh), "xpersif/MachineLearningNodelet"),
+      loader_("xpersif::core::PushModel", "push model") {
   core::Contract predict;
   predict.name = "predict";
   predict.kind = core::Contract::Kind::Operation;
@@ -82,28 +83,39 @@ MachineLearning::~MachineLearning() {
 
 void MachineLearning::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  core::PushLearnerConfig config;
+  core::PushModelConfig config;
   config.one_hot_identity = true;
   // The identities to encode: the objects of XPERSim's scene, in world-file order (~objects may restrict them).
   config.identities = loadSetupCatalogue(nodeHandle(), pnh).names();
+  std::string learner_type = "random_forest";
+  pnh.param("learner_type", learner_type, learner_type);
   pnh.param("features", config.feature_names, config.feature_names);
   std::map<std::string, double> scales;
   if (pnh.getParam("feature_scales", scales)) config.feature_scales = scales;
   pnh.param("one_hot_identity", config.one_hot_identity, config.one_hot_identity);
   int seed = 1;
   pnh.param("seed", seed, seed);
-  pnh.param("ensemble_size", config.ensemble_size, config.ensemble_size);
-  pnh.param("trees_per_member", config.trees_per_member, config.trees_per_member);
   core::requireInRange("~seed", seed, 0, 2147483647.0);
-  core::requireInRange("~ensemble_size", config.ensemble_size, 1, 256);
-  core::requireInRange("~trees_per_member", config.trees_per_member, 1, 1024);
   core::requireMaxSize("~features", config.feature_names.size(), core::kMaxExtraFeatures);
   config.seed = static_cast<std::uint64_t>(seed);
-  auto learner = std::make_unique<core::PushLearner>(config);  // throws with the reason for a bad config
+  if (pnh.hasParam("learner_options") && !pnh.getParam("learner_options", config.options)) {
+    throw core::ValidationError("~learner_options must be a dictionary of numbers");
+  }
+  // The forest's own parameters, kept from before learners were plugins.
+  if (learner_type == "random_forest") {
+    for (const std::string option : {"ensemble_size", "trees_per_member"}) {
+      int value = 0;
+      if (!pnh.getParam(option, value)) continue;
+      core::requireInRange("~" + option, value, 1, option == "ensemble_size" ? 256 : 1024);
+      config.options[option] = value;
+    }
+  }
+  auto learner = makeModel(learner_type, config);  // throws with the reason for an unknown type or a bad config
 
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    learner_type_ = learner_type;
     config_ = config;
     learner_ = std::move(learner);
     run_id_ = 0;
@@ -134,20 +146,33 @@ void MachineLearning::onShutdown() {
   learner_.reset();
 }
 
+std::shared_ptr<core::PushModel> MachineLearning::makeModel(const std::string& type,
+                                                           const core::PushModelConfig& config) {
+  std::shared_ptr<core::PushModel> model;
+  {
+    std::lock_guard<std::mutex> lock(loader_mutex_);
+    model = loader_.create("~learner_type", type);
+  }
+  model->configure(config);
+  return model;
+}
+
 void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
-  core::PushLearnerConfig config;
+  core::PushModelConfig config;
+  std::string type;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     config = config_;
+    type = learner_type_;
   }
   std::vector<core::PushSample> samples;
-  auto learner = std::make_unique<core::PushLearner>(config);
+  auto learner = makeModel(type, config);
   for (const auto& record : records) {
     core::PushSample sample;
     if (!sampleOf(record, &sample).empty()) continue;
     // Validate one by one so that one bad record does not lose the others.
     try {
-      learner->encode(sample.input);  // validates without training
+      learner->check(sample.input);  // validates without training
       core::requireOutcome("outcome", sample.outcome);
       samples.push_back(sample);
     } catch (const std::exception& e) {
@@ -193,9 +218,9 @@ void MachineLearning::publish() {
     model->header.stamp = notions->header.stamp = ros::Time::now();
     model->run_id = notions->run_id = run_id_;
     model->samples = notions->samples = static_cast<std::uint32_t>(learner_->sampleCount());
-    model->format = core::PushLearner::kFormat;
+    model->format = learner_->format();
     model->data = learner_->save();
-    for (const auto& n : core::deriveNotions(learner_->samples())) notions->notions.push_back(toMsg(n));
+    for (const auto& n : learner_->notions()) notions->notions.push_back(toMsg(n));
   }
   model_pub_.publish(model);
   notions_pub_.publish(notions);

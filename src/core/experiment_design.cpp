@@ -95,8 +95,12 @@ void DesignOptions::validate() const {
 
 // ---- random -----------------------------------------------------------------------------------------------
 
-RandomDesign::RandomDesign(unsigned long seed, DesignOptions options) : options_(std::move(options)), rng_(seed) {
-  options_.validate();
+RandomDesign::RandomDesign(unsigned long seed, DesignOptions options) { initialize(seed, options); }
+
+void RandomDesign::initialize(unsigned long seed, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  rng_.seed(seed);
 }
 
 ExperimentChoice RandomDesign::next(const DesignContext& context) {
@@ -109,7 +113,14 @@ ExperimentChoice RandomDesign::next(const DesignContext& context) {
 
 // ---- grid -------------------------------------------------------------------------------------------------
 
-GridDesign::GridDesign(DesignOptions options) : options_(std::move(options)) { options_.validate(); }
+GridDesign::GridDesign(DesignOptions options) { initialize(0, options); }
+
+void GridDesign::initialize(unsigned long /*seed*/, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  cursor_ = 0;
+  started_ = false;
+}
 
 std::size_t GridDesign::cells(std::size_t objects) const {
   return objects * options_.sides.size() * options_.grid_offsets.size() * options_.grid_distances.size();
@@ -142,9 +153,13 @@ ExperimentChoice GridDesign::next(const DesignContext& context) {
 
 // ---- curiosity --------------------------------------------------------------------------------------------
 
-CuriosityDesign::CuriosityDesign(unsigned long seed, DesignOptions options)
-    : options_(std::move(options)), rng_(seed) {
-  options_.validate();
+CuriosityDesign::CuriosityDesign(unsigned long seed, DesignOptions options) { initialize(seed, options); }
+
+void CuriosityDesign::initialize(unsigned long seed, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  rng_.seed(seed);
+  last_exploration_ = false;
 }
 
 ExperimentChoice CuriosityDesign::next(const DesignContext& context) {

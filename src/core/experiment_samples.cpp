@@ -23,11 +23,11 @@ std::optional<PushSample> pushSampleOf(const ExperimentRecord& record, std::stri
 
 namespace {
 /// The sample if the learner would accept it (the same checks as addSample), else nullopt with why.
-std::optional<PushSample> acceptedSample(const PushLearner& learner, const ExperimentRecord& record, std::string* why) {
+std::optional<PushSample> acceptedSample(const PushModel& learner, const ExperimentRecord& record, std::string* why) {
   auto sample = pushSampleOf(record, why);
   if (!sample) return sample;
   try {
-    learner.encode(sample->input);  // validates the input against the learner's config
+    learner.check(sample->input);  // validates the input against the learner's config
     requireOutcome("outcome", sample->outcome);
   } catch (const ValidationError& e) {
     if (why) *why = e.what();
@@ -37,7 +37,7 @@ std::optional<PushSample> acceptedSample(const PushLearner& learner, const Exper
 }
 }  // namespace
 
-bool learnFromRecord(PushLearner& learner, const ExperimentRecord& record, std::string* why) {
+bool learnFromRecord(PushModel& learner, const ExperimentRecord& record, std::string* why) {
   auto sample = acceptedSample(learner, record, why);
   if (!sample) return false;
   try {
@@ -49,7 +49,7 @@ bool learnFromRecord(PushLearner& learner, const ExperimentRecord& record, std::
   return true;
 }
 
-OfflineTrainingReport trainFromRecords(PushLearner& learner, const std::vector<ExperimentRecord>& records) {
+OfflineTrainingReport trainFromRecords(PushModel& learner, const std::vector<ExperimentRecord>& records) {
   OfflineTrainingReport report;
   std::vector<PushSample> samples;
   for (const auto& record : records) {

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <tuple>
 #include <unordered_map>
+#include <stdexcept>
 #include <unordered_set>
 
 namespace xpersif::core {
@@ -424,7 +425,7 @@ std::vector<std::string> PlanStep::openParameters() const {
   return open;
 }
 
-PlanResult plan(const PlanningProblem& problem) {
+PlanResult plan(const PlanningProblem& problem, const PlanSearch& search) {
   const Compiled c = compile(problem);
   PlanResult result;
 
@@ -483,70 +484,47 @@ PlanResult plan(const PlanningProblem& problem) {
   }
   result.groundings = ops.size();
 
-  // One loop for both strategies: the open list is ordered by (unmet goal literals, depth, creation), with
-  // the first term 0 for breadth-first, which makes it FIFO: the first goal state found has a shortest plan.
-  const bool greedy = problem.search == SearchStrategy::GreedyGoalCount;
-  auto unmet = [&](const std::vector<bool>& state) {
-    if (!greedy) return std::size_t{0};
-    return static_cast<std::size_t>(
-        std::count_if(goal.begin(), goal.end(), [&](const auto& lit) { return state[lit.first] == lit.second; }));
-  };
-  struct Node {
-    std::vector<bool> state;
-    long parent;
-    std::size_t op;
-    std::size_t depth;
-  };
-  std::vector<Node> nodes{{init, -1, 0, 0}};
-  std::unordered_set<std::vector<bool>> visited{init};
-  std::set<std::tuple<std::size_t, std::size_t, std::size_t>> open{{unmet(init), 0, 0}};
-  bool depth_cut = false;
-  while (!open.empty()) {
-    const std::size_t current = std::get<2>(*open.begin());
-    open.erase(open.begin());
-    if (nodes[current].depth >= problem.max_depth) {
-      depth_cut = true;
-      continue;
-    }
-    if (result.expanded >= problem.max_expansions) {
+  // The search itself is the configured algorithm's (plan_search.h): it sees facts and actions as numbers.
+  SearchSpace space;
+  space.initial = init;
+  space.goal = goal;
+  space.max_depth = problem.max_depth;
+  space.max_expansions = problem.max_expansions;
+  for (std::size_t i : ops) {
+    const GroundOp& op = g.ops_[i];
+    space.actions.push_back({op.pre_pos, op.pre_neg, op.add, op.del});
+  }
+  const SearchResult found = search.search(space);
+  result.expanded = found.expanded;
+  switch (found.outcome) {
+    case SearchResult::Outcome::Found:
+      for (std::size_t a : found.plan) {
+        if (a >= ops.size()) throw std::logic_error("the plan search returned an action that does not exist");
+        result.steps.push_back(makeStep(c, g.ops_[ops[a]]));
+      }
+      result.found = true;
+      break;
+    case SearchResult::Outcome::ExpansionLimit:
       result.reason = "the search expanded its limit of " + std::to_string(problem.max_expansions) +
                       " states without reaching the goal; raise max_expansions or narrow parameter_domains";
-      return result;
-    }
-    ++result.expanded;
-    for (std::size_t i : ops) {
-      const GroundOp& op = g.ops_[i];
-      const std::vector<bool>& state = nodes[current].state;
-      if (!std::all_of(op.pre_pos.begin(), op.pre_pos.end(), [&](int f) { return state[f]; }) ||
-          !std::all_of(op.pre_neg.begin(), op.pre_neg.end(), [&](int f) { return !state[f]; })) {
-        continue;
-      }
-      std::vector<bool> next = state;
-      for (int f : op.del) next[f] = false;
-      for (int f : op.add) next[f] = true;
-      if (!visited.insert(next).second) continue;
-      const bool done = satisfied(next);
-      nodes.push_back({std::move(next), static_cast<long>(current), i, nodes[current].depth + 1});
-      if (done) {
-        for (long k = static_cast<long>(nodes.size()) - 1; k > 0; k = nodes[k].parent) {
-          result.steps.push_back(makeStep(c, g.ops_[nodes[k].op]));
-        }
-        std::reverse(result.steps.begin(), result.steps.end());
-        result.found = true;
-        return result;
-      }
-      open.insert({unmet(nodes.back().state), nodes.back().depth, nodes.size() - 1});
-    }
-  }
-  if (depth_cut) {
-    result.reason = "no plan of at most " + std::to_string(problem.max_depth) +
-                    (problem.max_depth == 1 ? " step" : " steps") + " reaches the goal (the search stopped at max_depth; a longer plan may exist)";
-  } else {
-    result.reason =
-        "each goal literal can be reached on its own, but no sequence of steps makes them all hold together "
-        "(the steps' delete effects undo one another)";
+      break;
+    case SearchResult::Outcome::DepthLimit:
+      result.reason = "no plan of at most " + std::to_string(problem.max_depth) +
+                      (problem.max_depth == 1 ? " step" : " steps") +
+                      " reaches the goal (the search stopped at max_depth; a longer plan may exist)";
+      break;
+    case SearchResult::Outcome::Exhausted:
+      result.reason =
+          "each goal literal can be reached on its own, but no sequence of steps makes them all hold together "
+          "(the steps' delete effects undo one another)";
+      break;
   }
   return result;
+}
+
+PlanResult plan(const PlanningProblem& problem) {
+  if (problem.search == SearchStrategy::GreedyGoalCount) return plan(problem, GreedyGoalCountSearch());
+  return plan(problem, BreadthFirstSearch());
 }
 
 std::set<std::string> applyStep(const PlanningProblem& problem, const std::set<std::string>& state,
@@ -599,11 +577,11 @@ std::string validatePlan(const PlanningProblem& problem, const std::vector<PlanS
 }
 
 PlanResult replan(const PlanningProblem& problem, const std::set<std::string>& current_state,
-                  const PlanStep& failed_step) {
+                  const PlanStep& failed_step, const PlanSearch* search) {
   PlanningProblem again = problem;
   again.initial_state = current_state;
   again.excluded_steps.insert(failed_step.toString());
-  PlanResult result = plan(again);
+  PlanResult result = search ? plan(again, *search) : plan(again);
   if (!result.found) {
     result.reason = "no plan avoids the failed step " + quoted(failed_step.toString()) + ": " + result.reason;
   }

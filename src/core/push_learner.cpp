@@ -75,6 +75,53 @@ PushLearner::PushLearner(PushLearnerConfig config) : config_(std::move(config)) 
 }
 
 PushLearner::~PushLearner() = default;
+
+const std::vector<std::string> PushLearnerConfig::kOptionNames{"ensemble_size",    "trees_per_member",
+                                                               "max_depth",        "min_sample_count",
+                                                               "novelty_length",   "noise_neighbours"};
+
+PushModelConfig PushLearnerConfig::toModelConfig() const {
+  PushModelConfig m;
+  m.feature_names = feature_names;
+  m.feature_scales = feature_scales;
+  m.one_hot_identity = one_hot_identity;
+  m.identities = identities;
+  m.seed = seed;
+  m.prior_std = prior_std;
+  m.options = {{"ensemble_size", ensemble_size},       {"trees_per_member", trees_per_member},
+               {"max_depth", max_depth},               {"min_sample_count", min_sample_count},
+               {"novelty_length", novelty_length},     {"noise_neighbours", noise_neighbours}};
+  return m;
+}
+
+PushLearnerConfig PushLearnerConfig::fromModelConfig(const PushModelConfig& m) {
+  PushLearnerConfig c;
+  c.feature_names = m.feature_names;
+  c.feature_scales = m.feature_scales;
+  c.one_hot_identity = m.one_hot_identity;
+  c.identities = m.identities;
+  c.seed = m.seed;
+  c.prior_std = m.prior_std;
+  auto integer = [](const std::string& name, double value) {
+    requireInRange("options." + name, value, 0, 1e6);
+    if (value != std::floor(value)) throw ValidationError("options." + name + " must be a whole number");
+    return static_cast<int>(value);
+  };
+  for (const auto& [name, value] : m.options) {
+    if (name == "ensemble_size") c.ensemble_size = integer(name, value);
+    else if (name == "trees_per_member") c.trees_per_member = integer(name, value);
+    else if (name == "max_depth") c.max_depth = integer(name, value);
+    else if (name == "min_sample_count") c.min_sample_count = integer(name, value);
+    else if (name == "noise_neighbours") c.noise_neighbours = integer(name, value);
+    else if (name == "novelty_length") c.novelty_length = value;
+    else requireOneOf("the random forest's option", name, kOptionNames);
+  }
+  return c;
+}
+
+void PushLearner::configure(const PushModelConfig& config) {
+  *this = PushLearner(PushLearnerConfig::fromModelConfig(config));  // validates before anything changes
+}
 PushLearner::PushLearner(PushLearner&&) noexcept = default;
 PushLearner& PushLearner::operator=(PushLearner&&) noexcept = default;
 
@@ -146,10 +193,6 @@ std::size_t PushLearner::trainedCount(std::size_t n) {
     stride *= 2;
   }
   return n - (n - base) % stride;
-}
-
-void PushLearner::addSample(const PushInput& input, const Outcome& outcome) {
-  addSamples({PushSample{input, outcome}});
 }
 
 void PushLearner::addSamples(const std::vector<PushSample>& samples) {
@@ -544,120 +587,6 @@ void PushLearner::load(const std::string& bytes) {
     }
   }
   *this = std::move(loaded);
-}
-
-// ---- notions -------------------------------------------------------------------------------------------
-
-namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-double pearson(const std::vector<double>& a, const std::vector<double>& b) {
-  const double n = static_cast<double>(a.size());
-  double ma = 0, mb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    ma += a[i];
-    mb += b[i];
-  }
-  ma /= n;
-  mb /= n;
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  if (saa <= 0 || sbb <= 0) return 0.0;
-  return sab / std::sqrt(saa * sbb);
-}
-
-std::string percent(double share) { return std::to_string(static_cast<int>(std::lround(share * 100))) + " %"; }
-
-std::string fixed(double value, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
-
-}  // namespace
-
-std::vector<Notion> deriveNotions(const std::vector<PushSample>& samples) {
-  constexpr double kStillRatio = 0.1;
-  constexpr double kOffCentre = 0.004;
-  constexpr std::size_t kMinPushes = 3, kMinOffCentre = 5;
-  std::map<std::string, std::vector<const PushSample*>> by_object;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    const std::string field = "samples[" + std::to_string(i) + "]";
-    requireExperiment(field + ".input.experiment", samples[i].input.experiment);
-    requireOutcome(field + ".outcome", samples[i].outcome);
-    by_object[samples[i].input.experiment.object].push_back(&samples[i]);
-  }
-  std::vector<Notion> notions;
-  for (const auto& [object, pushes] : by_object) {
-    if (pushes.size() < kMinPushes) continue;
-    const int n = static_cast<int>(pushes.size());
-    std::vector<double> ratios;
-    for (const PushSample* s : pushes) {
-      ratios.push_back(std::hypot(s->outcome.dx, s->outcome.dy) / s->input.experiment.distance);
-    }
-    const double median_ratio = median(ratios);
-    double mean_ratio = 0;
-    int still = 0, further = 0;
-    for (double r : ratios) {
-      mean_ratio += r / n;
-      still += r < kStillRatio;
-      further += r > 1.0;
-    }
-    if (median_ratio < kStillRatio) {
-      notions.push_back({object, "does_not_move_when_pushed", median_ratio, static_cast<double>(still) / n, n,
-                         object + " does not move when pushed (median displacement " +
-                             percent(median_ratio) + " of the push distance over " + std::to_string(n) +
-                             " pushes)."});
-      continue;
-    }
-    notions.push_back({object, "moves_when_pushed", mean_ratio, static_cast<double>(n - still) / n, n,
-                       object + " moves when pushed, on average " + fixed(mean_ratio, 2) +
-                           " times the push distance (" + std::to_string(n) + " pushes)."});
-    if (median_ratio > 1.05) {
-      notions.push_back({object, "slides_further_than_pushed", median_ratio, static_cast<double>(further) / n, n,
-                         object + " slides further than it is pushed (median " + fixed(median_ratio, 2) +
-                             " times the push distance)."});
-    }
-    // Rotation per metre pushed against the offset.
-    std::vector<double> abs_offset, abs_turn, offset, turn;
-    for (const PushSample* s : pushes) {
-      const double per_metre = s->outcome.dyaw / s->input.experiment.distance;
-      abs_offset.push_back(std::fabs(s->input.experiment.offset));
-      abs_turn.push_back(std::fabs(per_metre));
-      offset.push_back(s->input.experiment.offset);
-      turn.push_back(per_metre);
-    }
-    const double magnitude_r = pearson(abs_offset, abs_turn);
-    const double signed_r = pearson(offset, turn);
-    int off_centre = 0, agree = 0;
-    for (std::size_t i = 0; i < offset.size(); ++i) {
-      if (std::fabs(offset[i]) < kOffCentre) continue;
-      ++off_centre;
-      // Agreement with the dominant direction: turns with the offset (r > 0) or against it (r < 0).
-      agree += (turn[i] * offset[i] * signed_r) > 0;
-    }
-    if (off_centre >= static_cast<int>(kMinOffCentre) && magnitude_r >= 0.5) {
-      const double share = static_cast<double>(agree) / off_centre;
-      if (share >= 0.8) {
-        notions.push_back({object, "rotates_when_pushed_off_centre", signed_r, share, off_centre,
-                           "off-centre pushes rotate " + object + (signed_r < 0 ? ", away from" : ", towards") +
-                               " the side of the contact (" + std::to_string(agree) + " of " +
-                               std::to_string(off_centre) + " off-centre pushes)."});
-      }
-    }
-  }
-  return notions;
 }
 
 }  // namespace xpersif::core

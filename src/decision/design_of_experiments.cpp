@@ -9,12 +9,13 @@
 namespace xpersif {
 
 DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : Component(std::move(nh), std::move(private_nh), "xpersif/DesignOfExperimentsNodelet") {
+    : Component(std::move(nh), std::move(private_nh), "xpersif/DesignOfExperimentsNodelet"),
+      loader_("xpersif::core::ExperimentDesign", "experiment design") {
   core::Contract declared;
   declared.name = "design_experiment";
   declared.kind = core::Contract::Kind::Operation;
   declared.interface_type = "xpersif/DesignExperiment";
-  declared.description = "the next push experiment, by the configured design (curiosity, random or grid)";
+  declared.description = "the next push experiment, by the configured design or the request's (a declared design)";
   declared.parameters = {"?reachable"};
   declared.preconditions = {
       {"known_objects(?reachable)", "every object listed as reachable must be one of ~objects"},
@@ -40,9 +41,12 @@ DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle pri
       });
   addOperation<DesignExperiment>(
       contract,
-      [](const DesignExperiment::Request& r) {
+      [this](const DesignExperiment::Request& r) {
         core::requireMaxSize("reachable", r.reachable.size(), 64);
-        if (!r.design.empty()) core::requireOneOf("design", r.design, core::designNames());
+        if (r.design.empty()) return;
+        std::lock_guard<std::mutex> lock(loader_mutex_);
+        const std::string why = loader_.whyNot("design", r.design);
+        if (!why.empty()) throw core::ValidationError(why);
       },
       [this](const DesignExperiment::Request& request, DesignExperiment::Response& response) {
         design(request, response);
@@ -77,11 +81,8 @@ void DesignOfExperiments::onConfigure() {
   core::requireInRange("~candidates", candidates, 1, 10000);
   core::requireFinite("~optimistic_curiosity", optimistic);
   options.candidates = static_cast<std::size_t>(candidates);
-  const std::vector<std::string> names = core::designNames();
-  if (std::find(names.begin(), names.end(), design) == names.end()) {
-    throw core::ValidationError("~design is '" + design + "', not one of " + joinNames(names));
-  }
-  auto made = core::makeDesign(design, static_cast<unsigned long>(seed), options);  // throws for bad options
+  // Throws for an undeclared design (listing the declared ones) or bad options.
+  auto made = makeDesign("~design", design, static_cast<unsigned long>(seed), options);
   core::CuriosityConfig regions;
   regions.objects = catalogue.names();
   for (const auto& object : catalogue.objects) regions.footprints[object.name] = object.footprint;
@@ -109,6 +110,18 @@ void DesignOfExperiments::onConfigure() {
   }
   features_sub_ = nodeHandle().subscribe<FeatureVector>(features_topic, 2, &DesignOfExperiments::onFeatures, this);
   motivation_sub_ = nodeHandle().subscribe<Motivation>(motivation_topic, 2, &DesignOfExperiments::onMotivation, this);
+}
+
+std::shared_ptr<core::ExperimentDesign> DesignOfExperiments::makeDesign(const std::string& parameter,
+                                                                       const std::string& type, unsigned long seed,
+                                                                       const core::DesignOptions& options) {
+  std::shared_ptr<core::ExperimentDesign> made;
+  {
+    std::lock_guard<std::mutex> lock(loader_mutex_);
+    made = loader_.create(parameter, type);
+  }
+  made->initialize(seed, options);
+  return made;
 }
 
 void DesignOfExperiments::onShutdown() {
@@ -158,17 +171,16 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   if (!why.empty()) throw core::ValidationError(why);
   std::unique_lock<std::mutex> lock(mutex_);
   if (!design_) throw std::runtime_error("not configured");
-  const bool curious = (request.design.empty() ? design_name_ : request.design) == "curiosity";
-  if (curious && request.scored > 0 &&
+  // A run may ask for another design than ~design (LOOPMODEL passes the run's): switch, seeded as configured.
+  if (!request.design.empty() && request.design != design_name_) {
+    design_ = makeDesign("design", request.design, seed_, options_);
+    design_name_ = request.design;
+    designed_ = 0;
+  }
+  if (design_->usesCuriosity() && request.scored > 0 &&
       !motivated_.wait_for(lock, std::chrono::seconds(10), [&] { return motivation_scored_ >= request.scored; })) {
     ROS_WARN("%s: MOTIVATION has not spoken of %u experiments within 10 s; designing with what it said",
              name().c_str(), request.scored);
-  }
-  // A run may ask for another design than ~design (LOOPMODEL passes the run's): switch, seeded as configured.
-  if (!request.design.empty() && request.design != design_name_) {
-    design_ = core::makeDesign(request.design, seed_, options_);
-    design_name_ = request.design;
-    designed_ = 0;
   }
   core::DesignContext context;
   const std::set<std::string> can(reachable.begin(), reachable.end());
@@ -186,7 +198,7 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   response.experiment = toMsg(core::Experiment{choice.object, choice.side, choice.offset, choice.distance});
   response.design = design_name_;
   response.rationale = choice.rationale;
-  if (design_name_ == "curiosity") {
+  if (design_->usesCuriosity()) {
     const core::RegionKey key = regions_->regionOf(fromMsg(response.experiment));
     const auto found = curiosity_.find(key.toString());
     response.rationale += "; region " + key.toString() + " curiosity " +

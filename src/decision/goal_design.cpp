@@ -30,7 +30,8 @@ core::Pose2D predictedEnd(const core::ObjectFeatures& object, const std::string&
 }
 
 GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : Component(std::move(nh), std::move(private_nh), "xpersif/GoalDesignNodelet") {
+    : Component(std::move(nh), std::move(private_nh), "xpersif/GoalDesignNodelet"),
+      loader_("xpersif::core::PushModel", "push model") {
   // ---- design_goal -------------------------------------------------------------------------------------
   core::Contract goal;
   goal.name = "design_goal";
@@ -146,11 +147,9 @@ void GoalDesign::onShutdown() {
 
 void GoalDesign::onModel(const LearnedModel::ConstPtr& model) {
   // Load outside the lock (it retrains): operations keep answering with the previous model meanwhile.
-  auto learner = std::make_unique<core::PushLearner>();
   std::string problem;
-  if (model->format != core::PushLearner::kFormat) {
-    problem = "the model's format is '" + model->format + "', not '" + core::PushLearner::kFormat + "'";
-  } else {
+  auto learner = modelFor(model->format, &problem);
+  if (learner) {
     try {
       learner->load(model->data);
     } catch (const std::exception& e) {
@@ -166,6 +165,37 @@ void GoalDesign::onModel(const LearnedModel::ConstPtr& model) {
   learner_ = std::move(learner);
   model_run_ = model->run_id;
   modelled_.notify_all();
+}
+
+std::shared_ptr<core::PushModel> GoalDesign::modelFor(const std::string& format, std::string* why) {
+  std::lock_guard<std::mutex> lock(loader_mutex_);
+  auto known = formats_.find(format);
+  if (known == formats_.end()) {
+    // Ask every declared class not asked yet which format it reads (a default-constructed instance is cheap).
+    for (const auto& type : loader_.declared()) {
+      bool asked = false;
+      for (const auto& [f, t] : formats_) asked = asked || t == type;
+      if (asked) continue;
+      try {
+        formats_.emplace(loader_.create("push model", type)->format(), type);
+      } catch (const std::exception& e) {
+        ROS_WARN("%s: the declared push model '%s' cannot be made: %s", name().c_str(), type.c_str(), e.what());
+      }
+    }
+    known = formats_.find(format);
+  }
+  if (known == formats_.end()) {
+    std::string formats;
+    for (const auto& [f, t] : formats_) formats += (formats.empty() ? "" : ", ") + f + " (" + t + ")";
+    *why = "the model's format is '" + format + "', which no declared push model reads; they read: " + formats;
+    return nullptr;
+  }
+  try {
+    return loader_.create("push model", known->second);
+  } catch (const std::exception& e) {
+    *why = e.what();
+    return nullptr;
+  }
 }
 
 void GoalDesign::onNotions(const Notions::ConstPtr& notions) {

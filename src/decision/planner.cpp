@@ -97,7 +97,8 @@ std::string whyNotGround(const std::vector<std::string>& goal) {
 }  // namespace
 
 Planner::Planner(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : Component(std::move(nh), std::move(private_nh), "xpersif/PlannerNodelet") {
+    : Component(std::move(nh), std::move(private_nh), "xpersif/PlannerNodelet"),
+      searches_("xpersif::core::PlanSearch", "plan search") {
   core::Contract declared;
   declared.name = "make_plan";
   declared.kind = core::Contract::Kind::Operation;
@@ -135,6 +136,8 @@ void Planner::onConfigure() {
   std::vector<std::string> components{"observation", "vision", "manipulation", "relocation"}, prefer{"vision"};
   int max_depth = 8;
   double retry_period = 1.0;
+  std::string search_type = "breadth_first";
+  pnh.param("search_type", search_type, search_type);
   pnh.param("components", components, components);
   pnh.param("prefer", prefer, prefer);
   pnh.param("max_depth", max_depth, max_depth);
@@ -143,8 +146,11 @@ void Planner::onConfigure() {
   for (const auto& c : components) core::requireIdentifier("~components entry", c);
   core::requireInRange("~max_depth", max_depth, 1, 64);
   core::requireInRange("~retry_period", retry_period, 0.01, 60.0);
+  std::shared_ptr<const core::PlanSearch> search = searches_.create("~search_type", search_type);
+  ROS_INFO("%s: search %s: %s", name().c_str(), search_type.c_str(), search->description().c_str());
   stopLoader();
   std::lock_guard<std::mutex> lock(mutex_);
+  search_ = std::move(search);
   components_ = components;
   prefer_ = prefer;
   max_depth_ = max_depth;
@@ -238,15 +244,18 @@ std::string Planner::whyNotLoaded() const {
 
 void Planner::makePlan(const MakePlan::Request& request, MakePlan::Response& response) {
   core::PlanningProblem problem;
+  std::shared_ptr<const core::PlanSearch> search;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    search = search_;
     problem.operators = operators_;
     problem.max_depth = static_cast<std::size_t>(max_depth_);
   }
   problem.goal = request.goal;
   problem.initial_state.insert(request.state.begin(), request.state.end());
   problem.excluded_steps = qualifyExcluded(request.excluded, problem.operators);
-  const core::PlanResult result = core::plan(problem);  // ValidationError for bad literals: a refusal
+  if (!search) throw core::UnavailableError("not configured");
+  const core::PlanResult result = core::plan(problem, *search);  // ValidationError for bad literals: a refusal
   if (!result.found) throw std::runtime_error("no plan: " + result.reason);
   response.steps = toStepMessages(result.steps, problem.operators);
   std::string text;

@@ -54,15 +54,20 @@ LoopModel::LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
   run_contract.interface_type = "xpersif/RunLoopAction";
   run_contract.description = "run the cognitive loop: experiments, then goals, recorded in the knowledge base";
   run_contract.parameters = {"?name", "?design"};
-  run_contract.preconditions = {{"valid_run(?design)", "the design must be curiosity, random or grid, the plan valid"},
+  run_contract.preconditions = {{"valid_run(?design)", "the design must be a declared experiment design (curiosity, "
+                                                       "random, grid, or another package's), the plan valid"},
                                 {"idle(loop)", "no other run may be in progress"}};
   run_contract.effects = {"finished(?name)", "learned(?name)"};
   ContractChecker<RunLoopGoal> checker(run_contract);
   checker
       .bind([](const RunLoopGoal& g) { return core::Bindings{{"?name", g.name}, {"?design", g.design}}; })
       .check("valid_run(?design)",
-             [](const RunLoopGoal& g) {
-               std::string why = core::checkOneOf("goal.design", g.design, {"curiosity", "random", "grid"});
+             [this](const RunLoopGoal& g) {
+               std::string why;
+               {
+                 std::lock_guard<std::mutex> lock(designs_mutex_);
+                 why = designs_.whyNot("goal.design", g.design);
+               }
                if (why.empty()) why = core::checkMaxSize("goal.plan", g.plan.size(), 1000);
                for (std::size_t i = 0; why.empty() && i < g.plan.size(); ++i) {
                  why = core::checkExperiment("goal.plan[" + std::to_string(i) + "]", fromMsg(g.plan[i]));

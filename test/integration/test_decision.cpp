@@ -167,8 +167,16 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   EXPECT_FALSE(unknown.response.success);
   EXPECT_EQ(unknown.response.code, xpersif::ResultCode::PRECONDITION_FAILED);  // known_objects(?reachable)
   EXPECT_NE(unknown.response.message.find("purple_cube"), std::string::npos) << unknown.response.message;
+  // A request naming an undeclared design (designs are plugins): INVALID, with the declared ones listed.
+  xpersif::DesignExperiment undeclared;
+  undeclared.request.design = "astrology";
+  ASSERT_TRUE(ros::service::call(ns + "design_of_experiments/design_experiment", undeclared));
+  EXPECT_FALSE(undeclared.response.success);
+  EXPECT_EQ(undeclared.response.code, xpersif::ResultCode::INVALID);
+  EXPECT_NE(undeclared.response.message.find("curiosity, grid, random"), std::string::npos)
+      << undeclared.response.message;
 
-  // An unknown design: configure fails, naming the parameter; a good one recovers.
+  // An unknown design: configure fails, naming the parameter and the declared designs; a good one recovers.
   ros::param::set(ns + "design_of_experiments/design", std::string("astrology"));
   ASSERT_TRUE(transition(ns + "design_of_experiments", "deactivate").success);
   const auto failed = transition(ns + "design_of_experiments", "configure");
@@ -176,6 +184,7 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   EXPECT_EQ(failed.state, xpersif::ComponentStatus::ERROR);
   EXPECT_NE(failed.message.find("~design"), std::string::npos) << failed.message;
   EXPECT_NE(failed.message.find("astrology"), std::string::npos) << failed.message;
+  EXPECT_NE(failed.message.find("curiosity, grid, random"), std::string::npos) << failed.message;
   ros::param::set(ns + "design_of_experiments/design", std::string("curiosity"));
   ASSERT_TRUE(transition(ns + "design_of_experiments", "configure").success);
   ASSERT_TRUE(transition(ns + "design_of_experiments", "activate").success);
@@ -255,6 +264,30 @@ TEST_F(Decision, MakePlanChainsGetFeaturesPushGetFeatures) {
   const auto empty = plan({});
   EXPECT_FALSE(empty.response.success);
   EXPECT_NE(empty.response.message.find("empty"), std::string::npos) << empty.response.message;
+}
+
+TEST_F(Decision, ThePlannersSearchIsChosenByName) {
+  // An undeclared search: configure fails, naming the parameter and the declared searches.
+  ros::param::set(ns + "planner/search_type", std::string("dijkstra"));
+  ASSERT_TRUE(transition(ns + "planner", "deactivate").success);
+  const auto failed = transition(ns + "planner", "configure");
+  EXPECT_FALSE(failed.success);
+  EXPECT_NE(failed.message.find("~search_type is 'dijkstra'"), std::string::npos) << failed.message;
+  EXPECT_NE(failed.message.find("breadth_first, greedy"), std::string::npos) << failed.message;
+  // The greedy search plans the same three steps from the real contracts.
+  ros::param::set(ns + "planner/search_type", std::string("greedy"));
+  const auto configured = transition(ns + "planner", "configure");
+  ASSERT_TRUE(configured.success) << configured.message;
+  ASSERT_TRUE(transition(ns + "planner", "activate").success);
+  const auto call = plan({"pushed(red_cube, -x, 0.01, 0.05)", "observed(scene)"});
+  ASSERT_TRUE(call.response.success) << call.response.message;
+  ASSERT_EQ(call.response.steps.size(), 3u) << call.response.message;
+  EXPECT_EQ(call.response.steps[1].operator_name, "push");
+  // Back to the default for the other tests.
+  ros::param::del(ns + "planner/search_type");
+  ASSERT_TRUE(transition(ns + "planner", "deactivate").success);
+  ASSERT_TRUE(transition(ns + "planner", "configure").success);
+  ASSERT_TRUE(transition(ns + "planner", "activate").success);
 }
 
 TEST_F(Decision, ExecutePlanPushesTheRedCubeAndObservesBeforeAndAfter) {

@@ -1,13 +1,14 @@
 /**
  * @file machine_learning.h
- * @brief MACHINELEARNING: learns from every stored push how objects move when pushed (core::PushLearner) and
- *        what that means in words (core::deriveNotions); predicts the outcome of a push.
+ * @brief MACHINELEARNING: learns from every stored push how objects move when pushed (a core::PushModel chosen
+ *        by `~learner_type`, see README "Plugins") and what that means in words (its notions); predicts the
+ *        outcome of a push.
  *
  * It follows the KNOWLEDGEBASE's `experiments` (see experiment_follower.h): each DONE record of the current run
  * becomes a sample — input: the experiment and the pushed object as the record's `before` vector saw it (name,
  * pose, and the features named in `~features`); outcome: the record's dx, dy, dyaw. A record whose `before`
  * lacks the object or a feature is skipped with a warning. After every sample, and after a restore, it
- * publishes latched `~model` (LearnedModel: run_id, samples, format core::PushLearner::kFormat, data =
+ * publishes latched `~model` (LearnedModel: run_id, samples, format = the model's format(), data =
  * save()) and latched `~notions` (Notions). With `~restore` (default true) it rebuilds itself from the KB's
  * get_experiments of the current run when activated, when a new run is announced, when a record of another
  * run arrives, or when it notices a lost record — so a restarted MACHINELEARNING goes on where it stopped.
@@ -21,9 +22,12 @@
  * Operation `predict` (Predict): the predicted dx, dy, dyaw (mean and std) of a push of an object with the
  * given features, and how many samples the model has.
  *
- * Parameters (configure): `~features` ([hue, size]), `~feature_scales` (dict, default {hue: 30, size: 0.01}),
+ * Parameters (configure): `~learner_type` (random_forest; any class declared for core::PushModel, e.g.
+ * gaussian_process; an undeclared one fails configure with the list of declared classes), `~learner_options`
+ * (dict of numbers, the learner's own options, e.g. {length_scale: 1.5} for gaussian_process),
+ * `~features` ([hue, size]), `~feature_scales` (dict, default {hue: 30, size: 0.01}),
  * `~one_hot_identity` (true), `~objects` (every object of the scene), `~seed` (1),
- * `~ensemble_size` (8), `~trees_per_member` (16), `~restore` (true), `~restore_timeout` (30 s),
+ * `~ensemble_size` (8), `~trees_per_member` (16) (random_forest only: its learner_options), `~restore` (true), `~restore_timeout` (30 s),
  * `~experiments_topic` (knowledge_base/experiments), `~run_topic` (knowledge_base/run), `~knowledge_base`
  * (knowledge_base: the namespace of its operations).
  */
@@ -37,7 +41,8 @@
 #include "xpersif/Predict.h"
 #include "xpersif/cognition/experiment_follower.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/push_model.h"
+#include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
@@ -60,9 +65,15 @@ class MachineLearning : public Component {
   void add(const ExperimentRecord& record);
   void publish();
 
-  std::mutex mutex_;  // guards learner_, run_id_
-  core::PushLearnerConfig config_;
-  std::unique_ptr<core::PushLearner> learner_;
+  /// A fresh model of the configured type and config (the loader is not thread-safe: under loader_mutex_).
+  std::shared_ptr<core::PushModel> makeModel(const std::string& type, const core::PushModelConfig& config);
+
+  std::mutex loader_mutex_;
+  AlgorithmLoader<core::PushModel> loader_;  // before the models: it holds their code
+  std::mutex mutex_;  // guards learner_type_, config_, learner_, run_id_
+  std::string learner_type_;
+  core::PushModelConfig config_;
+  std::shared_ptr<core::PushModel> learner_;
   std::uint64_t run_id_ = 0;
   ExperimentFollower::Options follow_;
 

@@ -75,21 +75,30 @@ struct DesignOptions {
   void validate() const;
 };
 
+/**
+ * DESIGNOFEXPERIMENTS' algorithm (a pluginlib base class: "xpersif::core::ExperimentDesign"; the classes of
+ * experiment_design_plugins.xml and any other package's). Plugins are made with their default constructor and
+ * then initialize()d; a design used before initialize() works with seed 0 and default options.
+ */
 class ExperimentDesign {
  public:
   virtual ~ExperimentDesign() = default;
+  /// Start again from @p seed with @p options. Throws ValidationError for bad options (and keeps the old ones).
+  virtual void initialize(unsigned long seed, const DesignOptions& options) = 0;
   /// The next experiment. Throws ValidationError when the context offers nothing to push (no objects, none
   /// reachable, malformed names) or lacks what the design needs; the design's state is then unchanged.
   virtual ExperimentChoice next(const DesignContext& context) = 0;
-  virtual std::string name() const = 0;
+  /// Whether next() consults context.curiosity (DESIGNOFEXPERIMENTS then waits for MOTIVATION's latest word).
+  virtual bool usesCuriosity() const { return false; }
 };
 
 /// Uniform over reachable objects, sides, offsets and distances (within the options' bounds).
 class RandomDesign : public ExperimentDesign {
  public:
+  RandomDesign() = default;
   RandomDesign(unsigned long seed, DesignOptions options = {});
+  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
-  std::string name() const override { return "random"; }
 
  private:
   DesignOptions options_;
@@ -104,9 +113,11 @@ class RandomDesign : public ExperimentDesign {
  */
 class GridDesign : public ExperimentDesign {
  public:
-  explicit GridDesign(DesignOptions options = {});
+  GridDesign() = default;
+  explicit GridDesign(DesignOptions options);
+  /// The grid has no randomness: @p seed is unused.
+  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
-  std::string name() const override { return "grid"; }
   /// Cells in the grid for @p objects objects.
   std::size_t cells(std::size_t objects) const;
 
@@ -123,9 +134,11 @@ class GridDesign : public ExperimentDesign {
  */
 class CuriosityDesign : public ExperimentDesign {
  public:
+  CuriosityDesign() = default;
   CuriosityDesign(unsigned long seed, DesignOptions options = {});
+  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
-  std::string name() const override { return "curiosity"; }
+  bool usesCuriosity() const override { return true; }
   /// Whether the last choice was an epsilon exploration (not the most curious candidate).
   bool lastWasExploration() const { return last_exploration_; }
 
@@ -135,10 +148,12 @@ class CuriosityDesign : public ExperimentDesign {
   bool last_exploration_ = false;
 };
 
-/// The designs makeDesign knows, in the order it lists them.
+/// The designs of this package under the names experiment_design_plugins.xml gives them ("curiosity",
+/// "random", "grid"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
+/// through pluginlib, which also finds other packages' designs.
 std::vector<std::string> designNames();
 
-/// "curiosity" | "random" | "grid"; unknown names and bad options throw ValidationError.
+/// One of designNames(), initialized; unknown names and bad options throw ValidationError.
 std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
                                              const DesignOptions& options = {});
 

@@ -28,7 +28,7 @@ std::optional<PushSample> pushSampleOf(const ExperimentRecord& record, std::stri
 
 /// Live training step: add @p record's sample to @p learner if it gives one the learner accepts.
 /// Returns true when added; otherwise false with @p why set, and the learner unchanged.
-bool learnFromRecord(PushLearner& learner, const ExperimentRecord& record, std::string* why = nullptr);
+bool learnFromRecord(PushModel& learner, const ExperimentRecord& record, std::string* why = nullptr);
 
 struct OfflineTrainingReport {
   std::size_t records = 0;  ///< records seen
@@ -37,7 +37,7 @@ struct OfflineTrainingReport {
 };
 
 /// Offline training: the same as learnFromRecord() on each record in order (the same samples, the same model),
-/// but trains once (PushLearner::addSamples).
-OfflineTrainingReport trainFromRecords(PushLearner& learner, const std::vector<ExperimentRecord>& records);
+/// but trains once (PushModel::addSamples).
+OfflineTrainingReport trainFromRecords(PushModel& learner, const std::vector<ExperimentRecord>& records);
 
 }  // namespace xpersif::core

@@ -32,6 +32,7 @@
 #pragma once
 
 #include "xpersif/core/contract.h"
+#include "xpersif/core/plan_search.h"
 
 #include <cstddef>
 #include <map>
@@ -41,6 +42,7 @@
 
 namespace xpersif::core {
 
+/// The two built-in searches by name, for plan(problem); any PlanSearch (plan_search.h) goes to plan(problem, search).
 enum class SearchStrategy {
   BreadthFirst,     ///< shortest plans; explores every state up to the plan's length (exponential in it)
   GreedyGoalCount,  ///< best-first on the number of unmet goal literals: fast on independent subgoals,
@@ -86,6 +88,8 @@ struct PlanResult {
  * state, goal or domains are (non-ground literals, negated initial literals, empty domains).
  */
 PlanResult plan(const PlanningProblem& problem);
+/// The same with @p search instead of problem.search: the search algorithm chosen by name (a PlanSearch plugin).
+PlanResult plan(const PlanningProblem& problem, const PlanSearch& search);
 
 /**
  * Simulate @p steps from problem.initial_state. Returns "" when every step's fluent preconditions hold when
@@ -101,9 +105,9 @@ std::set<std::string> applyStep(const PlanningProblem& problem, const std::set<s
 /**
  * Plan again after @p failed_step failed: from @p current_state (what holds now), with the failed step
  * excluded, so the new plan avoids it or takes an alternative. The reason, when no plan is found, says that
- * the failed step was excluded.
+ * the failed step was excluded. @p search, when given, replaces problem.search.
  */
 PlanResult replan(const PlanningProblem& problem, const std::set<std::string>& current_state,
-                  const PlanStep& failed_step);
+                  const PlanStep& failed_step, const PlanSearch* search = nullptr);
 
 }  // namespace xpersif::core

@@ -53,19 +53,9 @@
 #include <vector>
 
 #include "xpersif/core/experiment.h"
+#include "xpersif/core/push_model.h"
 
 namespace xpersif::core {
-
-/// What the learner sees of a push: the push and the pushed object's features just before it.
-struct PushInput {
-  Experiment experiment;
-  ObjectFeatures object;  ///< object.name must equal experiment.object
-};
-
-struct PushSample {
-  PushInput input;
-  Outcome outcome;
-};
 
 struct PushLearnerConfig {
   /// Extra features of the object used as inputs; every sample must carry them.
@@ -83,9 +73,17 @@ struct PushLearnerConfig {
   Outcome prior_std{0.10, 0.05, 0.5};  ///< m, m, rad: the std with no data nearby
   double novelty_length = 0.5;         ///< L, in scaled input units (offset: 1 cm, distance: 3 cm, direction: 1)
   int noise_neighbours = 8;            ///< samples whose out-of-bag residuals give the local noise
+
+  /// The shared part as a PushModelConfig, the rest as its options (the names of kOptionNames).
+  PushModelConfig toModelConfig() const;
+  /// The inverse; an option not in kOptionNames, or not an integer where one is needed, throws ValidationError.
+  static PushLearnerConfig fromModelConfig(const PushModelConfig& config);
+  /// ensemble_size, trees_per_member, max_depth, min_sample_count, novelty_length, noise_neighbours.
+  static const std::vector<std::string> kOptionNames;
 };
 
-class PushLearner {
+/// The random-forest ensemble as a PushModel (plugin "random_forest" in push_model_plugins.xml).
+class PushLearner : public PushModel {
  public:
   static constexpr std::size_t kMinTrainingSamples = 3;
   static constexpr std::size_t kRetrainEveryUpTo = 40;  ///< retrain at every sample up to this many
@@ -94,32 +92,35 @@ class PushLearner {
 
   /// Throws ValidationError for a bad config (sizes < 1, non-positive scales or stds).
   explicit PushLearner(PushLearnerConfig config = {});
-  ~PushLearner();
+  ~PushLearner() override;
   PushLearner(PushLearner&&) noexcept;
   PushLearner& operator=(PushLearner&&) noexcept;
 
-  /// Validate, store and learn from one push. Bad input throws ValidationError and changes nothing.
-  void addSample(const PushInput& input, const Outcome& outcome);
-  /// Same as adding them one by one (the same model results), but trains once.
-  void addSamples(const std::vector<PushSample>& samples);
+  /// PushModel: the options are PushLearnerConfig's own fields (kOptionNames).
+  void configure(const PushModelConfig& config) override;
+  void check(const PushInput& input, const std::string& field = "input") const override { validate(input, field); }
+  /// Validate, store and learn from pushes; the same model as adding them one by one, but trained once.
+  /// Bad input throws ValidationError and changes nothing.
+  void addSamples(const std::vector<PushSample>& samples) override;
 
   /// Throws ValidationError for bad input (NaN, unknown side, missing feature...).
-  Prediction predict(const PushInput& input) const;
+  Prediction predict(const PushInput& input) const override;
 
-  std::size_t sampleCount() const { return samples_.size(); }
+  std::size_t sampleCount() const override { return samples_.size(); }
   /// How many of the first samples the current model was trained on: trainedCount(sampleCount()).
   std::size_t trainedCount() const { return trained_count_; }
   /// The retraining schedule, the one rule for when the model retrains (see Determinism).
   static std::size_t trainedCount(std::size_t n);
-  const std::vector<PushSample>& samples() const { return samples_; }
+  const std::vector<PushSample>& samples() const override { return samples_; }
   const PushLearnerConfig& config() const { return config_; }
 
   /// The model as bytes (OpenCV FileStorage YAML): config, samples and a fingerprint of its predictions.
-  std::string save() const;
+  std::string save() const override;
   /// Replace this learner by the one in @p bytes (retrained deterministically from its samples and checked
   /// against the fingerprint). Malformed bytes throw ValidationError and change nothing.
-  void load(const std::string& bytes);
+  void load(const std::string& bytes) override;
   static constexpr const char* kFormat = "xpersif-push-learner/1";
+  std::string format() const override { return kFormat; }
 
   /// The encoded input row (for tests and tools).
   std::vector<float> encode(const PushInput& input) const;
@@ -137,19 +138,5 @@ class PushLearner {
   mutable std::string saved_samples_;
   mutable std::size_t saved_count_ = 0;
 };
-
-/// Learned facts from pushes, per object (objects in name order). Predicates:
-///  - "does_not_move_when_pushed": median |displacement| / distance < 0.1 over >= 3 pushes;
-///    value = that median ratio; confidence = the share of pushes below the threshold.
-///  - "moves_when_pushed": otherwise, over >= 3 pushes; value = mean displacement ratio; confidence = the share
-///    of pushes above the threshold.
-///  - "slides_further_than_pushed": moves and its median ratio > 1.05; value = median ratio; confidence = share
-///    of pushes with ratio > 1.
-///  - "rotates_when_pushed_off_centre": moves, >= 5 off-centre pushes (|offset| >= 0.004), |dyaw| correlates
-///    with |offset| (Pearson r >= 0.5) and the sign of dyaw follows the sign of the offset in >= 80 %
-///    of them; value = the signed correlation of dyaw with offset (negative: turns away from the contact side);
-///    confidence = the share of sign agreement.
-/// Throws ValidationError for invalid samples.
-std::vector<Notion> deriveNotions(const std::vector<PushSample>& samples);
 
 }  // namespace xpersif::core

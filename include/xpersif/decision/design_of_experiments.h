@@ -1,7 +1,8 @@
 /**
  * @file design_of_experiments.h
- * @brief DESIGNOFEXPERIMENTS: the operation design_experiment, which chooses the next push with one of the
- *        designs of core/experiment_design.h (curiosity, random or grid, by the ~design parameter).
+ * @brief DESIGNOFEXPERIMENTS: the operation design_experiment, which chooses the next push with a
+ *        core::ExperimentDesign chosen by name (~design, or the request's design): this package's curiosity,
+ *        random and grid (experiment_design_plugins.xml) or any other package's (README "Plugins").
  *
  * The curiosity design is steered by MOTIVATION without calling it: the component keeps the latest latched
  * Motivation message (regions + curiosity) and evaluates each candidate push locally, by the region key
@@ -13,13 +14,14 @@
  * vector on ~features_topic (VISION's), always restricted to ~objects.
  *
  * The objects, their footprints and the push limits come from XPERSim's scene (core::SetupCatalogue).
- * Parameters (configure): ~design (curiosity | random | grid), ~seed (int, 1), ~objects (every object of the
+ * Parameters (configure): ~design (curiosity; any declared design), ~seed (int, 1), ~objects (every object of the
  * scene; a list restricts it), ~min_offset/~max_offset (fractions of each face's offset limit, -1/1),
  * ~min_distance/~max_distance (m, the set-up's minPushDistance/maxPushDistance), ~grid_offsets (fractions,
  * [-0.75, 0, 0.75]), ~grid_distances (fractions of ~max_distance, [0.2, 0.4]), ~candidates (32), ~epsilon (0.1),
  * ~offset_bins (3), ~optimistic_curiosity (1.0),
  * ~features_topic (vision/features), ~motivation_topic (motivation/motivation). An unknown design or bad
- * bounds make configure fail with the sentence naming the parameter. Re-configuring restarts the design
+ * bounds make configure fail with the sentence naming the parameter (for a design: and listing the declared
+ * ones); a request naming an undeclared design is refused with ResultCode INVALID and the same list. Re-configuring restarts the design
  * from its seed.
  */
 #pragma once
@@ -37,6 +39,7 @@
 #include "xpersif/component/component.h"
 #include "xpersif/core/experiment_design.h"
 #include "xpersif/core/motivation.h"
+#include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
@@ -55,11 +58,18 @@ class DesignOfExperiments : public Component {
   void onFeatures(const FeatureVector::ConstPtr& features);
   void onMotivation(const Motivation::ConstPtr& motivation);
 
+  /// A new design of @p type, initialized with @p seed and @p options; throws ValidationError (naming
+  /// @p parameter) for an undeclared type or bad options.
+  std::shared_ptr<core::ExperimentDesign> makeDesign(const std::string& parameter, const std::string& type,
+                                                     unsigned long seed, const core::DesignOptions& options);
+
+  std::mutex loader_mutex_;
+  AlgorithmLoader<core::ExperimentDesign> loader_;  // before design_: it holds the design's code
   mutable std::mutex mutex_;
   std::string design_name_;
   unsigned long seed_ = 1;
   core::DesignOptions options_;
-  std::unique_ptr<core::ExperimentDesign> design_;
+  std::shared_ptr<core::ExperimentDesign> design_;
   std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
   std::vector<std::string> objects_;
   std::map<std::string, core::Footprint> footprints_;

@@ -3,9 +3,10 @@
  * @brief GOALDESIGN: in the goal-directed state, the operations design_goal (a movable object and a place to
  *        bring it) and choose_push (the push the learned model expects to bring it closest to that place).
  *
- * GOALDESIGN never calls MACHINELEARNING: it keeps its own core::PushLearner, loaded (PushLearner::load, which
- * retrains deterministically and checks the fingerprint) from every latched LearnedModel on ~model_topic, and
- * the latest Notions on ~notions_topic.
+ * GOALDESIGN never calls MACHINELEARNING: it keeps its own core::PushModel, loaded (PushModel::load) from every
+ * latched LearnedModel on ~model_topic, and the latest Notions on ~notions_topic. The model is made by pluginlib:
+ * of the declared push models (README "Plugins"), the one whose format() is the message's format, so whichever
+ * learner MACHINELEARNING runs, GOALDESIGN reads it without a parameter of its own.
  *
  * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed,
  * chosen with a seeded generator (~seed), and a target ~min_target_distance..~max_target_distance (5-12 cm)
@@ -43,7 +44,8 @@
 #include "xpersif/component/component.h"
 #include "xpersif/core/footprint.h"
 #include "xpersif/core/motion.h"
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/push_model.h"
+#include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
@@ -78,7 +80,12 @@ class GoalDesign : public Component {
   int random_candidates_ = 64;
   core::ArenaGeometry arena_;
   std::mt19937_64 rng_;
-  std::unique_ptr<core::PushLearner> learner_;
+  /// A model that reads @p format (the first declared class, by name, whose format() it is), or why none does.
+  std::shared_ptr<core::PushModel> modelFor(const std::string& format, std::string* why);
+  std::mutex loader_mutex_;  // guards loader_, formats_
+  AlgorithmLoader<core::PushModel> loader_;  // before learner_: it holds the model's code
+  std::map<std::string, std::string> formats_;  // format -> declared class, learned by asking each once
+  std::shared_ptr<core::PushModel> learner_;
   std::uint64_t model_run_ = 0;
   std::string model_topic_;
   std::string model_problem_;  // why the last model could not be loaded

@@ -16,8 +16,12 @@
  * `excluded` entries may name an operator with or without its component ("push", "manipulation/push",
  * "push(red_cube, -x, 0.01, 0.05)").
  *
+ * The search is a core::PlanSearch chosen by name (README "Plugins"): ~search_type breadth_first (shortest
+ * plans), greedy, or another package's; an undeclared one fails configure with the list of declared searches.
+ *
  * Parameters (configure): ~components ([observation, vision, manipulation, relocation]), ~prefer ([vision]),
- * ~max_depth (8), ~retry_period (s of wall time between rounds of get_contracts calls, 1.0).
+ * ~max_depth (8), ~search_type (breadth_first), ~retry_period (s of wall time between rounds of get_contracts
+ * calls, 1.0).
  */
 #pragma once
 
@@ -33,6 +37,7 @@
 #include "xpersif/PlanStep.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/planner.h"
+#include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
@@ -75,7 +80,9 @@ class Planner : public Component {
   std::string whyNotLoaded() const;
   void makePlan(const MakePlan::Request& request, MakePlan::Response& response);
 
+  AlgorithmLoader<core::PlanSearch> searches_;  // before search_: it holds the search's code (configure only)
   mutable std::mutex mutex_;
+  std::shared_ptr<const core::PlanSearch> search_;
   std::vector<std::string> components_;
   std::vector<std::string> prefer_;
   int max_depth_ = 8;

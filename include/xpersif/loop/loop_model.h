@@ -46,8 +46,10 @@
 #include "xpersif/SetExperiment.h"
 #include "xpersif/component/lockstep_client.h"
 #include "xpersif/component/supervisor.h"
+#include "xpersif/core/experiment_design.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
+#include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
@@ -86,6 +88,9 @@ class LoopModel : public Supervisor {
   EmbodimentSetup setup_;
   std::optional<core::SetupCatalogue> catalogue_;  // read from XPERSim's scene once XPERSim is up
   std::mutex catalogue_mutex_;
+  // Which designs exist (a run's design must be one): asked of pluginlib, never listed here.
+  std::mutex designs_mutex_;
+  AlgorithmLoader<core::ExperimentDesign> designs_{"xpersif::core::ExperimentDesign", "experiment design"};
   std::unique_ptr<LockstepClient> lockstep_;  // lets simulated time pass while it waits (lockstep mode)
   // EXECUTION's execute_plan, made once: an action client takes ~0.25 s to connect (bench/loop_speed.md).
   std::unique_ptr<actionlib::SimpleActionClient<ExecutePlanAction>> execution_;
