@@ -3,6 +3,7 @@
 
 #include <std_msgs/UInt64.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
@@ -24,6 +25,24 @@ core::Contract operation(const std::string& name, const std::string& type, const
 }
 
 std::string runText(std::uint64_t run_id) { return run_id == 0 ? std::string("current") : std::to_string(run_id); }
+
+constexpr std::uint32_t kDefaultCallLimit = 100;
+
+CallRecord toMsg(const core::CallRecord& call) {
+  CallRecord m;
+  m.id = static_cast<std::uint64_t>(call.id);
+  m.run_id = static_cast<std::uint64_t>(call.run_id);
+  m.time = call.time;
+  m.component = call.component;
+  m.kind = call.kind;
+  m.name = call.name;
+  m.outcome = call.outcome;
+  m.code = call.code ? static_cast<std::uint8_t>(*call.code) : ComponentEvent::NO_CODE;
+  m.reason = call.reason;
+  m.effects = call.effects;
+  m.duration = call.duration;
+  return m;
+}
 }  // namespace
 
 std::string KnowledgeBaseComponent::defaultDatabasePath() {
@@ -193,6 +212,56 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
                              response.message = std::to_string(response.notions.size()) + " notions of run " +
                                                 std::to_string(run);
                            });
+
+  // ---- get_calls -------------------------------------------------------------------------------------
+  core::Contract calls = operation("get_calls", "xpersif/GetCalls",
+                                   "the stored command and operation calls of a run, oldest first, filtered");
+  calls.parameters = {"?run"};
+  calls.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  calls.effects = {"known(calls, ?run)"};
+  ContractChecker<GetCalls::Request> calls_contract(calls);
+  calls_contract.bind([](const GetCalls::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const GetCalls::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<GetCalls>(
+      calls_contract,
+      [](const GetCalls::Request& r) {
+        // The same checks the store makes, here so that a bad filter is refused before anything is flushed.
+        core::requireOneOf("kind", r.kind, {"", "command", "operation"});
+        core::throwIfInvalid(core::checkMaxLength("component", r.component, core::kMaxNameLength));
+        core::requireFinite("since", r.since);
+        core::requireInRange("limit", r.limit, 0, static_cast<double>(core::KnowledgeBase::kMaxCallsPerQuery));
+      },
+      [this](const GetCalls::Request& r, GetCalls::Response& response) {
+        flushCalls();  // what has arrived is answered, not only what the last period wrote
+        core::CallFilter filter;
+        filter.run_id = resolveRun(r.run_id);
+        // A relative name is a component beside the knowledge base, as the events name them (fully resolved).
+        filter.component = r.component.empty() ? "" : nodeHandle().resolveName(r.component);
+        filter.kind = r.kind;
+        filter.since = r.since;
+        filter.limit = r.limit == 0 ? kDefaultCallLimit : r.limit;
+        bool more = false;
+        for (const auto& c : store()->calls(filter, &more)) response.calls.push_back(toMsg(c));
+        response.truncated = more;
+        response.message = std::to_string(response.calls.size()) + " calls of run " + std::to_string(filter.run_id) +
+                           (more ? " (more match: ask again from the last one's time)" : "");
+      });
+
+  // ---- get_facts -------------------------------------------------------------------------------------
+  core::Contract facts = operation("get_facts", "xpersif/GetFacts",
+                                   "the ground facts of a run: the latest stored effect per predicate and subject");
+  facts.parameters = {"?run"};
+  facts.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  facts.effects = {"known(facts, ?run)"};
+  ContractChecker<GetFacts::Request> facts_contract(facts);
+  facts_contract.bind([](const GetFacts::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const GetFacts::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<GetFacts>(facts_contract, nullptr, [this](const GetFacts::Request& r, GetFacts::Response& response) {
+    flushCalls();
+    const std::int64_t run = resolveRun(r.run_id);
+    for (const auto& f : store()->facts(run)) response.facts.push_back(f.literal);
+    response.message = std::to_string(response.facts.size()) + " facts of run " + std::to_string(run);
+  });
 }
 
 const core::SetupCatalogue& KnowledgeBaseComponent::catalogue() {
@@ -208,6 +277,15 @@ void KnowledgeBaseComponent::onConfigure() {
   pnh.param("database", path, path);
   pnh.param("model_topic", model_topic, model_topic);
   pnh.param("notions_topic", notions_topic, notions_topic);
+  std::string events_topic = kSharedEventsTopic;
+  double event_flush_period = 0.2;
+  int max_pending_calls = 10000;
+  pnh.param("events_topic", events_topic, events_topic);
+  pnh.param("event_flush_period", event_flush_period, event_flush_period);
+  pnh.param("max_pending_calls", max_pending_calls, max_pending_calls);
+  if (events_topic.empty()) throw core::ValidationError("~events_topic is empty; give the topic of the components' events");
+  core::requireInRange("~event_flush_period", event_flush_period, 0.01, 10.0);
+  core::requireInRange("~max_pending_calls", max_pending_calls, 1, 1000000);
   if (path.empty()) throw core::ValidationError("~database is empty; give a file path (or :memory:)");
   if (path != ":memory:") {
     const std::filesystem::path parent = std::filesystem::path(path).parent_path();
@@ -232,6 +310,9 @@ void KnowledgeBaseComponent::onConfigure() {
     current_run_ = runs.empty() ? 0 : runs.back().id;
     model_topic_ = model_topic;
     notions_topic_ = notions_topic;
+    events_topic_ = events_topic;
+    event_flush_period_ = event_flush_period;
+    max_pending_calls_ = static_cast<std::size_t>(max_pending_calls);
     if (!experiments_pub_) {
       // Latched: a follower that (re)connects after the KB came back gets the latest record; one it missed
       // before shows as a gap, and it restores from the KB (ExperimentFollower).
@@ -243,19 +324,31 @@ void KnowledgeBaseComponent::onConfigure() {
 }
 
 void KnowledgeBaseComponent::onActivate() {
-  std::string model_topic, notions_topic;
+  std::string model_topic, notions_topic, events_topic;
+  double flush_period;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     model_topic = model_topic_;
     notions_topic = notions_topic_;
+    events_topic = events_topic_;
+    flush_period = event_flush_period_;
   }
   model_sub_ = nodeHandle().subscribe<LearnedModel>(model_topic, 10, [this](const LearnedModel::ConstPtr& m) { onModel(m); });
   notions_sub_ = nodeHandle().subscribe<Notions>(notions_topic, 10, [this](const Notions::ConstPtr& n) { onNotions(n); });
+  // Events come in bursts (a plan's steps, a lockstep tick's calls): a deep queue, drained by a cheap callback.
+  events_sub_ = nodeHandle().subscribe<ComponentEvent>(events_topic, 1000,
+                                                       [this](const ComponentEvent::ConstPtr& e) { onEvent(e); });
+  flush_timer_ = nodeHandle().createWallTimer(ros::WallDuration(flush_period), [this](const ros::WallTimerEvent&) {
+    flushCalls();
+  });
 }
 
 void KnowledgeBaseComponent::onDeactivate() {
   model_sub_.shutdown();
   notions_sub_.shutdown();
+  events_sub_.shutdown();
+  flush_timer_.stop();
+  flushCalls();
 }
 
 void KnowledgeBaseComponent::onShutdown() {
@@ -324,6 +417,74 @@ void KnowledgeBaseComponent::onNotions(const Notions::ConstPtr& notions) {
   } catch (const std::exception& e) {
     ROS_WARN("%s: did not store the notions of run %lu: %s", name().c_str(),
              static_cast<unsigned long>(notions->run_id), e.what());
+  }
+}
+
+void KnowledgeBaseComponent::onEvent(const ComponentEvent::ConstPtr& event) {
+  // Command acceptances are half a call (the outcome follows); lifecycle and supervision are not calls.
+  const bool command = event->kind == ComponentEvent::COMMAND;
+  if (!(command || event->kind == ComponentEvent::OPERATION) || (command && event->outcome == "accepted")) return;
+  core::CallRecord call;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    call.run_id = current_run_;
+  }
+  call.time = event->header.stamp.toSec();
+  call.component = event->component;
+  call.kind = command ? "command" : "operation";
+  call.name = event->name;
+  call.outcome = event->outcome;
+  if (!command && event->code != ComponentEvent::NO_CODE) call.code = event->code;
+  call.reason = event->reason.substr(0, core::KnowledgeBase::kMaxTextLength);
+  call.effects = event->effects;
+  call.duration = std::isfinite(event->duration) && event->duration > 0.0 ? event->duration : 0.0;
+  std::size_t dropped = 0;
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending_calls_.push_back(std::move(call));
+    if (pending_calls_.size() > max_pending_calls_) {
+      dropped = pending_calls_.size() - max_pending_calls_;
+      pending_calls_.erase(pending_calls_.begin(), pending_calls_.begin() + static_cast<std::ptrdiff_t>(dropped));
+    }
+  }
+  if (dropped) {
+    ROS_WARN_THROTTLE(5.0, "%s: more than ~max_pending_calls calls wait to be written; dropped the oldest",
+                      name().c_str());
+  }
+}
+
+void KnowledgeBaseComponent::flushCalls() {
+  std::lock_guard<std::mutex> flushing(flush_mutex_);
+  std::vector<core::CallRecord> batch;
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    batch.swap(pending_calls_);
+  }
+  if (batch.empty()) return;
+  std::shared_ptr<core::KnowledgeBase> kb;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    kb = kb_;
+  }
+  if (!kb) return;  // shut down: nothing to write to
+  try {
+    kb->recordCalls(batch);
+    return;
+  } catch (const core::ValidationError& e) {
+    ROS_WARN("%s: a batch of %zu calls was refused (%s); storing them one by one", name().c_str(), batch.size(),
+             e.what());
+  } catch (const std::exception& e) {
+    ROS_ERROR("%s: could not store %zu calls: %s", name().c_str(), batch.size(), e.what());
+    return;
+  }
+  // One bad call (a component's malformed effect) must not cost the others their place.
+  for (const auto& call : batch) {
+    try {
+      kb->recordCalls({call});
+    } catch (const std::exception& e) {
+      ROS_WARN("%s: did not store %s's call of %s: %s", name().c_str(), call.component.c_str(), call.name.c_str(),
+               e.what());
+    }
   }
 }
 

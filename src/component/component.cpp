@@ -139,6 +139,7 @@ bool Component::onGetState(GetState::Response& response) {
   response.health = status.health;
   response.last_error = status.last_error;
   ComponentEvent event = events_.make(ComponentEvent::OPERATION, "get_state", "ok");
+  event.code = ResultCode::OK;
   event.response = toYaml(response);
   events_.publish(event);
   return true;
@@ -187,6 +188,7 @@ bool Component::onGetContracts(GetContracts::Request& request, GetContracts::Res
   }
   ComponentEvent event =
       events_.make(ComponentEvent::OPERATION, "get_contracts", response.success ? "ok" : "refused", response.message);
+  event.code = response.code;
   event.request = toYaml(request);
   events_.publish(event);
   return true;

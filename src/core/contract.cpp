@@ -20,6 +20,29 @@ bool isNameChar(char c) {
          c == '/';
 }
 
+/// A name, or a tuple "(a, b, ...)" of names (normalized to single spaces after its commas).
+std::string parseArgument(const std::string& text, const std::string& arg) {
+  const auto invalid = [&] { return ContractError("literal '" + text + "' has an empty or invalid argument"); };
+  if (arg.empty()) throw invalid();
+  if (arg.front() != '(') {
+    if (!std::all_of(arg.begin(), arg.end(), isNameChar)) throw invalid();
+    return arg;
+  }
+  if (arg.back() != ')') throw invalid();
+  std::string tuple = "(";
+  const std::string items = arg.substr(1, arg.size() - 2);
+  std::size_t start = 0;
+  while (true) {
+    const auto comma = items.find(',', start);
+    const std::string item = trim(items.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (item.empty() || !std::all_of(item.begin(), item.end(), isNameChar)) throw invalid();
+    tuple += (start ? ", " : "") + item;
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return tuple + ")";
+}
+
 }  // namespace
 
 std::string Literal::toString() const {
@@ -46,16 +69,21 @@ Literal parseLiteral(const std::string& text) {
   }
   const std::string args = body.substr(open + 1, body.size() - open - 2);
   if (!trim(args).empty()) {
-    std::size_t start = 0;
-    while (true) {
-      const auto comma = args.find(',', start);
-      const std::string arg = trim(args.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
-      if (arg.empty() || !std::all_of(arg.begin(), arg.end(), isNameChar)) {
-        throw ContractError("literal '" + text + "' has an empty or invalid argument");
+    // Split at the commas outside parentheses: an argument may be a tuple such as a pose "(0.1, 0.2, 0)".
+    std::vector<std::string> parts(1);
+    int depth = 0;
+    for (char c : args) {
+      if (c == '(' && ++depth > 1) throw ContractError("literal '" + text + "' nests a tuple in a tuple");
+      if (c == ')' && --depth < 0) throw ContractError("literal '" + text + "' has an unbalanced ')'");
+      if (c == ',' && depth == 0) {
+        parts.emplace_back();
+      } else {
+        parts.back() += c;
       }
-      literal.arguments.push_back(arg);
-      if (comma == std::string::npos) break;
-      start = comma + 1;
+    }
+    if (depth != 0) throw ContractError("literal '" + text + "' has an unclosed '('");
+    for (const auto& part : parts) {
+      literal.arguments.push_back(parseArgument(text, trim(part)));
     }
   }
   return literal;

@@ -2,8 +2,11 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 
+#include "xpersif/core/contract.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif::core {
@@ -82,6 +85,37 @@ CREATE TABLE events(
   text      TEXT NOT NULL,
   created   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')));
 CREATE INDEX events_by_run ON events(run_id, id);
+)SQL";
+
+// Schema 3: every command and operation call a component reported, its grounded effects, and the facts they
+// imply per run (the latest effect per predicate and subject), kept up to date in the calls' transaction so
+// that reading the facts is one indexed query.
+const char* const kCallsSchema = R"SQL(
+CREATE TABLE calls(
+  id        INTEGER PRIMARY KEY,
+  run_id    INTEGER REFERENCES runs(id) ON DELETE CASCADE,
+  time      REAL NOT NULL,
+  component TEXT NOT NULL CHECK(length(component) > 0),
+  kind      TEXT NOT NULL CHECK(kind IN ('command', 'operation')),
+  name      TEXT NOT NULL CHECK(length(name) > 0),
+  outcome   TEXT NOT NULL CHECK(length(outcome) > 0),
+  code      INTEGER CHECK(code IS NULL OR code BETWEEN 0 AND 254),
+  reason    TEXT NOT NULL DEFAULT '',
+  duration  REAL NOT NULL CHECK(duration >= 0),
+  created   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')));
+CREATE INDEX calls_by_run_time ON calls(coalesce(run_id, 0), time, id);
+CREATE TABLE effects(
+  call_id   INTEGER NOT NULL REFERENCES calls(id) ON DELETE CASCADE,
+  position  INTEGER NOT NULL CHECK(position >= 0),
+  literal   TEXT NOT NULL CHECK(length(literal) > 0),
+  PRIMARY KEY(call_id, position));
+CREATE TABLE facts(
+  run_id    INTEGER NOT NULL,
+  predicate TEXT NOT NULL,
+  subject   TEXT NOT NULL,
+  literal   TEXT NOT NULL,
+  call_id   INTEGER NOT NULL REFERENCES calls(id) ON DELETE CASCADE,
+  PRIMARY KEY(run_id, predicate, subject));
 )SQL";
 
 void requireText(const std::string& field, const std::string& text, bool allow_empty = false) {
@@ -270,27 +304,34 @@ void KnowledgeBase::initialize() {
   { Statement(*this, "PRAGMA synchronous=FULL").run(); }
   { Statement(*this, "PRAGMA foreign_keys=ON").run(); }
 
-  if (version == 0) {
+  if (version < kSchemaVersion) {
     Transaction transaction(*this);
-    // Another process may have created the schema while we waited for the write lock.
-    if (pragma_int("PRAGMA user_version") == 0) {
+    auto exec_script = [this](const char* sql, const std::string& what) {
       char* error = nullptr;
-      if (sqlite3_exec(db_, kSchema, nullptr, nullptr, &error) != SQLITE_OK) {
+      if (sqlite3_exec(db_, sql, nullptr, nullptr, &error) != SQLITE_OK) {
         const std::string why = error ? error : "unknown error";
         sqlite3_free(error);
-        throw KnowledgeBaseError("knowledge base '" + path_ + "' cannot create its schema: " + why);
+        throw KnowledgeBaseError("knowledge base '" + path_ + "' cannot " + what + ": " + why);
       }
+    };
+    // Another process may have created or migrated the schema while we waited for the write lock.
+    std::int64_t now = pragma_int("PRAGMA user_version");
+    if (now == 0) {
+      exec_script(kSchema, "create its schema");  // schema 2's tables; 3 adds its own below
       Statement(*this, ("PRAGMA application_id=" + std::to_string(kApplicationId)).c_str()).run();
-      Statement(*this, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str()).run();
+      now = 2;
     }
-    transaction.commit();
-  } else if (version == 1) {
-    // Schema 1 did not keep the design that chose an experiment: older experiments keep an empty one.
-    Transaction transaction(*this);
-    if (pragma_int("PRAGMA user_version") == 1) {
+    if (now == 1) {
+      // Schema 1 did not keep the design that chose an experiment: older experiments keep an empty one.
       Statement(*this, "ALTER TABLE experiments ADD COLUMN design TEXT NOT NULL DEFAULT ''").run();
-      Statement(*this, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str()).run();
+      now = 2;
     }
+    if (now == 2) {
+      // Schema 2 kept no calls: a migrated database starts with none, and so with no facts.
+      exec_script(kCallsSchema, "add the tables of calls, effects and facts");
+      now = 3;
+    }
+    Statement(*this, ("PRAGMA user_version=" + std::to_string(now)).c_str()).run();
     transaction.commit();
   }
 }
@@ -724,6 +765,149 @@ std::vector<EventRecord> KnowledgeBase::events(std::int64_t run_id, std::size_t 
     result.push_back(EventRecord{select.integer(0), select.integer(1), select.real(2), select.text(3), select.text(4),
                                  select.text(5)});
   }
+  return result;
+}
+
+// ---- calls and facts -----------------------------------------------------------------------------------
+
+namespace {
+
+void validateCall(const std::string& at, const CallRecord& call, std::vector<Literal>& parsed) {
+  requireFinite(at + ".time", call.time);
+  requireText(at + ".component", call.component);
+  throwIfInvalid(checkMaxLength(at + ".component", call.component, kMaxNameLength));
+  throwIfInvalid(checkOneOf(at + ".kind", call.kind, {"command", "operation"}));
+  requireText(at + ".name", call.name);
+  throwIfInvalid(checkMaxLength(at + ".name", call.name, kMaxNameLength));
+  requireText(at + ".outcome", call.outcome);
+  throwIfInvalid(checkMaxLength(at + ".outcome", call.outcome, kMaxNameLength));
+  if (call.code && (*call.code < 0 || *call.code > 254)) {
+    throw ValidationError(at + ".code is " + std::to_string(*call.code) + "; a ResultCode is 0 to 254");
+  }
+  requireText(at + ".reason", call.reason, /*allow_empty=*/true);
+  throwIfInvalid(checkInRange(at + ".duration", call.duration, 0.0, 1e9));
+  throwIfInvalid(checkMaxSize(at + ".effects", call.effects.size(), KnowledgeBase::kMaxEffectsPerCall));
+  parsed.clear();
+  for (std::size_t i = 0; i < call.effects.size(); ++i) {
+    const std::string field = at + ".effects[" + std::to_string(i) + "]";
+    requireText(field, call.effects[i]);
+    Literal literal;
+    try {
+      literal = parseLiteral(call.effects[i]);
+    } catch (const ContractError& e) {
+      throw ValidationError(field + " '" + call.effects[i] + "' is malformed: " + e.what());
+    }
+    for (const auto& argument : literal.arguments) {
+      if (!argument.empty() && argument[0] == '?') {
+        throw ValidationError(field + " '" + call.effects[i] + "' has the parameter " + argument +
+                              "; effects are stored grounded");
+      }
+    }
+    parsed.push_back(std::move(literal));
+  }
+}
+
+std::string subjectOf(const Literal& literal) { return literal.arguments.empty() ? "" : literal.arguments[0]; }
+
+}  // namespace
+
+std::vector<CallRecord> KnowledgeBase::recordCalls(const std::vector<CallRecord>& calls) {
+  std::vector<std::vector<Literal>> parsed(calls.size());
+  for (std::size_t i = 0; i < calls.size(); ++i) validateCall("calls[" + std::to_string(i) + "]", calls[i], parsed[i]);
+  std::vector<CallRecord> stored = calls;
+  if (calls.empty()) return stored;
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  Transaction transaction(*this);
+  std::set<std::int64_t> known_runs;
+  for (std::size_t i = 0; i < calls.size(); ++i) {
+    const CallRecord& call = calls[i];
+    if (call.run_id != 0 && known_runs.insert(call.run_id).second) {
+      Statement exists(*this, "SELECT 1 FROM runs WHERE id = ?");
+      exists.bind(call.run_id);
+      if (!exists.step()) {
+        throw ValidationError("calls[" + std::to_string(i) + "].run_id " + std::to_string(call.run_id) +
+                              " is not a run of this knowledge base");
+      }
+    }
+    Statement insert(*this, "INSERT INTO calls(run_id, time, component, kind, name, outcome, code, reason, duration) "
+                            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    if (call.run_id != 0) insert.bind(call.run_id);
+    else insert.bindNull();
+    insert.bind(call.time).bind(call.component).bind(call.kind).bind(call.name).bind(call.outcome);
+    insert.bindOptional(call.code).bind(call.reason).bind(call.duration).run();
+    stored[i].id = sqlite3_last_insert_rowid(db_);
+    // Effects of one call apply as STRIPS applies them: deletes first, then adds.
+    for (std::size_t e = 0; e < call.effects.size(); ++e) {
+      Statement effect(*this, "INSERT INTO effects(call_id, position, literal) VALUES (?, ?, ?)");
+      effect.bind(stored[i].id).bind(static_cast<std::int64_t>(e)).bind(parsed[i][e].toString()).run();
+    }
+    for (const Literal& literal : parsed[i]) {
+      if (!literal.negated) continue;
+      Statement remove(*this, "DELETE FROM facts WHERE run_id = ? AND predicate = ? AND subject = ?");
+      remove.bind(call.run_id).bind(literal.predicate).bind(subjectOf(literal)).run();
+    }
+    for (const Literal& literal : parsed[i]) {
+      if (literal.negated) continue;
+      Statement set(*this, "INSERT OR REPLACE INTO facts(run_id, predicate, subject, literal, call_id) "
+                           "VALUES (?, ?, ?, ?, ?)");
+      set.bind(call.run_id).bind(literal.predicate).bind(subjectOf(literal)).bind(literal.toString());
+      set.bind(stored[i].id).run();
+    }
+    fault("calls:inserted");
+  }
+  transaction.commit();
+  return stored;
+}
+
+std::vector<CallRecord> KnowledgeBase::calls(const CallFilter& filter, bool* more) {
+  if (filter.run_id < 0) throw ValidationError("run_id is negative; give a run's id or 0 for calls outside any run");
+  throwIfInvalid(checkMaxLength("component", filter.component, kMaxNameLength));
+  throwIfInvalid(checkOneOf("kind", filter.kind, {"", "command", "operation"}));
+  requireFinite("since", filter.since);
+  throwIfInvalid(checkInRange("limit", static_cast<double>(filter.limit), 1.0, static_cast<double>(kMaxCallsPerQuery)));
+  std::lock_guard<std::mutex> lock(mutex_);
+  Statement select(*this, "SELECT id, coalesce(run_id, 0), time, component, kind, name, outcome, code, reason, duration "
+                          "FROM calls WHERE coalesce(run_id, 0) = ?1 AND time >= ?2 AND (?3 = '' OR component = ?3) "
+                          "AND (?4 = '' OR kind = ?4) ORDER BY time, id LIMIT ?5");
+  select.bind(filter.run_id).bind(filter.since).bind(filter.component).bind(filter.kind);
+  select.bind(static_cast<std::int64_t>(filter.limit) + 1);  // one more: tells whether there are more
+  std::vector<CallRecord> result;
+  bool truncated = false;
+  while (select.step()) {
+    if (result.size() == filter.limit) {
+      truncated = true;
+      break;
+    }
+    CallRecord c;
+    c.id = select.integer(0);
+    c.run_id = select.integer(1);
+    c.time = select.real(2);
+    c.component = select.text(3);
+    c.kind = select.text(4);
+    c.name = select.text(5);
+    c.outcome = select.text(6);
+    if (!select.isNull(7)) c.code = static_cast<int>(select.integer(7));
+    c.reason = select.text(8);
+    c.duration = select.real(9);
+    result.push_back(std::move(c));
+  }
+  for (auto& c : result) {
+    Statement effects(*this, "SELECT literal FROM effects WHERE call_id = ? ORDER BY position");
+    effects.bind(c.id);
+    while (effects.step()) c.effects.push_back(effects.text(0));
+  }
+  if (more) *more = truncated;
+  return result;
+}
+
+std::vector<Fact> KnowledgeBase::facts(std::int64_t run_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Statement select(*this, "SELECT f.literal, c.component, c.time, f.call_id FROM facts f JOIN calls c ON c.id = f.call_id "
+                          "WHERE f.run_id = ? ORDER BY f.literal");
+  select.bind(run_id);
+  std::vector<Fact> result;
+  while (select.step()) result.push_back(Fact{select.text(0), select.text(1), select.real(2), select.integer(3)});
   return result;
 }
 

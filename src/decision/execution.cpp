@@ -6,8 +6,11 @@
 #include <sstream>
 #include <thread>
 
+#include "xpersif/GetContracts.h"
 #include "xpersif/GetFeatures.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/decision/decision_common.h"
+#include "xpersif/decision/planner.h"
 
 namespace xpersif {
 
@@ -71,6 +74,31 @@ TurnToGoal turnGoal(const std::string& field, const PlanStep& step, const std::s
   g.heading = parseNumber(field + " ?heading", need(field, step, "?heading"));
   g.pose_source = pose_source;
   return g;
+}
+
+/// A step as the core planner names it ("component/operator", its bound values).
+core::PlanStep toCoreStep(const PlanStep& step) {
+  core::PlanStep out;
+  out.operator_name = step.component + "/" + step.operator_name;
+  out.parameters = step.parameters;
+  for (std::size_t i = 0; i < step.parameters.size() && i < step.values.size(); ++i) {
+    if (!step.values[i].empty() && step.values[i][0] != '?') out.bindings[step.parameters[i]] = step.values[i];
+  }
+  return out;
+}
+
+/// Give the new plan's open parameters the values the old plan gave the same operator's (e.g. a push's offset).
+void fillOpenValues(std::vector<PlanStep>& steps, const std::vector<PlanStep>& old_steps) {
+  for (auto& step : steps) {
+    for (std::size_t i = 0; i < step.parameters.size() && i < step.values.size(); ++i) {
+      if (step.values[i].empty() || step.values[i][0] != '?') continue;
+      for (const auto& old : old_steps) {
+        if (old.component != step.component || old.operator_name != step.operator_name) continue;
+        const std::string* value = valueOf(old, step.parameters[i]);
+        if (value && !value->empty() && (*value)[0] != '?') step.values[i] = *value;
+      }
+    }
+  }
 }
 
 std::string stepText(const PlanStep& step) {
@@ -151,6 +179,19 @@ Execution::Execution(ros::NodeHandle nh, ros::NodeHandle private_nh)
         if (g.steps.empty()) throw core::ValidationError("steps is empty; a plan needs at least one step");
         core::requireMaxSize("steps", g.steps.size(), 64);
         core::requireInRange("retries", g.retries, 0, 10);
+        core::requireMaxSize("goal", g.goal.size(), 64);
+        core::requireMaxSize("state", g.state.size(), 256);
+        for (const auto& literal : g.goal) {
+          core::Literal parsed;
+          try {
+            parsed = core::parseLiteral(literal);
+          } catch (const std::exception& e) {
+            throw core::ValidationError("goal literal '" + literal + "' is malformed: " + e.what());
+          }
+          for (const auto& argument : parsed.arguments) {
+            if (argument[0] == '?') throw core::ValidationError("goal literal '" + literal + "' has the parameter " + argument);
+          }
+        }
       },
       [this](ExecutePlan::Context& context, ExecutePlanResult& result) { return execute(context, result); });
 }
@@ -164,6 +205,15 @@ void Execution::onConfigure() {
   pnh.param("fresh_timeout", fresh_timeout, fresh_timeout);
   pnh.param("server_timeout", server_timeout, server_timeout);
   pnh.param("step_timeout", step_timeout, step_timeout);
+  int max_replans = 2, max_depth = 8;
+  std::vector<std::string> components{"observation", "vision", "manipulation", "relocation"}, prefer{"vision"};
+  pnh.param("max_replans", max_replans, max_replans);
+  pnh.param("max_depth", max_depth, max_depth);
+  pnh.param("components", components, components);
+  pnh.param("prefer", prefer, prefer);
+  core::requireInRange("~max_replans", max_replans, 0, 10);
+  core::requireInRange("~max_depth", max_depth, 1, 64);
+  for (const auto& c : components) core::requireIdentifier("~components entry", c);
   core::requireInRange("~max_age", max_age, 0.0, 3600.0);
   core::requireInRange("~fresh_timeout", fresh_timeout, 0.0, 600.0);
   core::requireInRange("~server_timeout", server_timeout, 0.01, 600.0);
@@ -173,6 +223,10 @@ void Execution::onConfigure() {
   fresh_timeout_ = fresh_timeout;
   server_timeout_ = server_timeout;
   step_timeout_ = step_timeout;
+  max_replans_ = max_replans;
+  max_depth_ = max_depth;
+  components_ = components;
+  prefer_ = prefer;
 }
 
 void Execution::onShutdown() {
@@ -301,13 +355,52 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
   }
 }
 
+std::vector<core::Contract> Execution::readOperators(ExecutePlan::Context& context) {
+  std::vector<std::string> components, prefer;
+  double server_timeout;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    components = components_;
+    prefer = prefer_;
+    server_timeout = server_timeout_;
+  }
+  std::vector<ComponentContracts> loaded;
+  for (const auto& component : components) {
+    if (context.stopRequested()) throw core::UnavailableError("stopped while reading the contracts");
+    const std::string service = nodeHandle().resolveName(component + "/get_contracts");
+    GetContracts call;
+    if (!ros::service::waitForService(service, ros::Duration(server_timeout)) || !ros::service::call(service, call) ||
+        !call.response.success) {
+      throw core::UnavailableError("the contracts of " + component + " could not be read from " + service);
+    }
+    ComponentContracts got{component, {}};
+    for (const auto& c : call.response.contracts) got.contracts.push_back(fromContractMsg(c));
+    loaded.push_back(std::move(got));
+  }
+  return qualifiedOperators(loaded, prefer);
+}
+
 CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResult& result) {
   const ExecutePlanGoal& goal = context.goal();
   // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
   // behind the camera, so its latest vector may be older (under load, a frame from before the scene was arranged).
   observe_after_ = ros::Time::now();
-  for (std::size_t i = 0; i < goal.steps.size(); ++i) {
-    const PlanStep& step = goal.steps[i];
+  result.code = ResultCode::FAILED;
+  std::vector<PlanStep> steps = goal.steps;
+  int max_replans, max_depth;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    max_replans = max_replans_;
+    max_depth = max_depth_;
+  }
+  // Replanning needs the goal, the operators (read at the first failure, so a plan that runs through costs
+  // nothing) and the observed state: what held when the plan was made plus the effects of the steps that ran.
+  core::PlanningProblem problem;
+  problem.goal = goal.goal;
+  problem.max_depth = static_cast<std::size_t>(max_depth);
+  std::vector<PlanStep> succeeded;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const PlanStep& step = steps[i];
     const std::string text = stepText(step);
     std::string why;
     for (std::uint32_t attempt = 0; attempt <= goal.retries; ++attempt) {
@@ -331,16 +424,54 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
       if (why.empty()) break;
       ROS_WARN_STREAM(name() << ": step " << i << " " << text << " failed (attempt " << attempt + 1 << "): " << why);
     }
-    if (!why.empty()) {
-      result.success = false;
-      result.failed_step = static_cast<std::uint32_t>(i);
-      result.message = "step " + std::to_string(i) + " " + text + " failed after " +
-                       std::to_string(goal.retries + 1) + (goal.retries ? " attempts: " : " attempt: ") + why;
-      return CommandOutcome::aborted(result.message);
+    if (why.empty()) {
+      succeeded.push_back(step);
+      continue;
     }
+    result.success = false;
+    result.failed_step = static_cast<std::uint32_t>(i);
+    result.message = "step " + std::to_string(i) + " " + text + " failed after " + std::to_string(goal.retries + 1) +
+                     (goal.retries ? " attempts: " : " attempt: ") + why;
+    if (goal.goal.empty()) return CommandOutcome::aborted(result.message);
+    if (result.replans >= static_cast<std::uint32_t>(max_replans)) {
+      return CommandOutcome::aborted(result.message += "; no replan left (~max_replans " +
+                                                       std::to_string(max_replans) + ")");
+    }
+    ++result.replans;
+    core::PlanResult replanned;
+    try {
+      if (problem.operators.empty()) problem.operators = readOperators(context);
+      // A step of a component outside ~components has no known effects: applyStep refuses it, and so do we.
+      std::set<std::string> state(goal.state.begin(), goal.state.end());
+      for (const auto& done : succeeded) state = core::applyStep(problem, state, toCoreStep(done));
+      replanned = core::replan(problem, state, toCoreStep(step));
+    } catch (const std::exception& e) {
+      return CommandOutcome::aborted(result.message += "; cannot replan: " + std::string(e.what()));
+    }
+    if (!replanned.found) {
+      return CommandOutcome::aborted(result.message += "; replanning from the observed state found no plan: " +
+                                                       replanned.reason);
+    }
+    std::vector<PlanStep> next = toStepMessages(replanned.steps, problem.operators);
+    fillOpenValues(next, steps);
+    for (std::size_t k = 0; k < next.size(); ++k) {
+      const std::string unfit = checkStep("replanned step " + std::to_string(k), next[k]);
+      if (!unfit.empty()) return CommandOutcome::aborted(result.message += "; the new plan cannot run: " + unfit);
+    }
+    std::string plan_text;
+    for (const auto& s : next) plan_text += (plan_text.empty() ? "" : ", ") + stepText(s);
+    ROS_INFO_STREAM(name() << ": replan " << result.replans << " after " << text << ": " << plan_text);
+    ExecutePlanFeedback feedback;
+    feedback.step = static_cast<std::uint32_t>(i);
+    feedback.status = "replanned (" + std::to_string(result.replans) + ") after " + text + ": " + plan_text;
+    context.publishFeedback(feedback);
+    steps = std::move(next);
+    i = static_cast<std::size_t>(-1);  // the loop's ++ starts the new plan at 0
   }
   result.success = true;
-  result.message = std::to_string(goal.steps.size()) + " steps done";
+  result.code = ResultCode::OK;
+  result.message = std::to_string(steps.size()) + " steps done" +
+                   (result.replans ? " after " + std::to_string(result.replans) + " replan(s)" : "");
   return CommandOutcome::succeeded(result.message);
 }
 

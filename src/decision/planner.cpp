@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "xpersif/GetContracts.h"
+#include "xpersif/GetFacts.h"
 #include "xpersif/decision/decision_common.h"
 
 namespace xpersif {
@@ -142,6 +143,12 @@ void Planner::onConfigure() {
   pnh.param("prefer", prefer, prefer);
   pnh.param("max_depth", max_depth, max_depth);
   pnh.param("retry_period", retry_period, retry_period);
+  std::string knowledge_base = "knowledge_base";
+  double knowledge_base_timeout = 2.0;
+  pnh.param("knowledge_base", knowledge_base, knowledge_base);
+  pnh.param("knowledge_base_timeout", knowledge_base_timeout, knowledge_base_timeout);
+  core::requireIdentifier("~knowledge_base", knowledge_base);
+  core::requireInRange("~knowledge_base_timeout", knowledge_base_timeout, 0.01, 60.0);
   if (components.empty()) throw core::ValidationError("~components is empty; list the components to plan with");
   for (const auto& c : components) core::requireIdentifier("~components entry", c);
   core::requireInRange("~max_depth", max_depth, 1, 64);
@@ -155,6 +162,8 @@ void Planner::onConfigure() {
   prefer_ = prefer;
   max_depth_ = max_depth;
   retry_period_ = retry_period;
+  knowledge_base_ = knowledge_base;
+  knowledge_base_timeout_ = knowledge_base_timeout;
   loaded_.clear();
   operators_.clear();
 }
@@ -253,6 +262,10 @@ void Planner::makePlan(const MakePlan::Request& request, MakePlan::Response& res
   }
   problem.goal = request.goal;
   problem.initial_state.insert(request.state.begin(), request.state.end());
+  if (request.state_from_knowledge_base) {
+    const std::vector<std::string> facts = knowledgeBaseFacts();
+    problem.initial_state.insert(facts.begin(), facts.end());
+  }
   problem.excluded_steps = qualifyExcluded(request.excluded, problem.operators);
   if (!search) throw core::UnavailableError("not configured");
   const core::PlanResult result = core::plan(problem, *search);  // ValidationError for bad literals: a refusal
@@ -266,6 +279,24 @@ void Planner::makePlan(const MakePlan::Request& request, MakePlan::Response& res
   }
   response.message = std::to_string(result.steps.size()) + " steps: " + text;
   if (!open.empty()) response.message += "; open parameters (the goal binds none): " + joinNames(open);
+}
+
+std::vector<std::string> Planner::knowledgeBaseFacts() {
+  std::string service;
+  double timeout;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    service = nodeHandle().resolveName(knowledge_base_ + "/get_facts");
+    timeout = knowledge_base_timeout_;
+  }
+  // A blocking call is fine here: make_plan runs on the manager's threads, and the KB lives in its own manager.
+  if (!ros::service::waitForService(service, ros::Duration(timeout))) {
+    throw core::UnavailableError("the knowledge base's " + service + " is not offered, so its facts cannot be the state");
+  }
+  GetFacts call;  // run_id 0: the current run
+  if (!ros::service::call(service, call)) throw core::UnavailableError("the call of " + service + " did not go through");
+  if (!call.response.success) throw std::runtime_error(service + " refused: " + call.response.message);
+  return call.response.facts;
 }
 
 }  // namespace xpersif

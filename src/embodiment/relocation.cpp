@@ -38,7 +38,8 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                       {"localized(robot)", "the robot's pose must be known from the requested pose source"},
                       {"in_arena(?pose)", "the robot must fit inside the arena at the target"},
                       {"reachable(?pose)", "a collision-free path must lead from the robot to the target"}};
-  go.effects = {"robot_at(?pose)"};
+  // The robot is the subject (first argument): the knowledge base keeps one robot_at fact, the latest.
+  go.effects = {"robot_at(robot, ?pose)"};
   ContractChecker<GoToPoseGoal> go_contract(go);
   go_contract
       .bind([](const GoToPoseGoal& g) {
@@ -74,7 +75,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   turn.parameters = {"?heading"};
   turn.preconditions = {{"finite(?heading)", "the heading must be a finite number"},
                         {"localized(robot)", "the robot's pose must be known from the requested pose source"}};
-  turn.effects = {"robot_heading(?heading)"};
+  turn.effects = {"robot_heading(robot, ?heading)"};
   ContractChecker<TurnToGoal> turn_contract(turn);
   turn_contract.bind([](const TurnToGoal& g) { return core::Bindings{{"?heading", core::describeNumber(g.heading)}}; })
       .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkFinite("goal.heading", g.heading); })

@@ -16,7 +16,8 @@ ExampleCounter::ExampleCounter(ros::NodeHandle nh, ros::NodeHandle private_nh)
   count_to.parameters = {"?target"};
   count_to.preconditions = {{"above(?target, total)", "the target must exceed the current total"},
                             {"within_limit(?target)", "the target must not exceed ~limit"}};
-  count_to.effects = {"total(?target)"};
+  // The counter is the subject (first argument): a later total replaces an earlier one in the knowledge base.
+  count_to.effects = {"total(counter, ?target)"};
   ContractChecker<CountToGoal> count_contract(count_to);
   count_contract
       .bind([](const CountToGoal& goal) { return core::Bindings{{"?target", core::describeNumber(goal.target)}}; })

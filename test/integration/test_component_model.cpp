@@ -166,7 +166,7 @@ TEST_F(ComponentModel, CommandThatSucceedsRecordsItsEffects) {
       &succeeded));
   EXPECT_EQ(succeeded.name, "count_to");
   ASSERT_EQ(succeeded.effects.size(), 1u);
-  EXPECT_EQ(succeeded.effects[0], "total(" + xpersif::core::describeNumber(target) + ")");
+  EXPECT_EQ(succeeded.effects[0], "total(counter, " + xpersif::core::describeNumber(target) + ")");
   EXPECT_NE(succeeded.request.find("target"), std::string::npos) << "the goal is recorded as text";
   EXPECT_TRUE(events.waitForMatch([](const ComponentEvent& e) { return e.outcome == "accepted"; }, 1.0));
 
@@ -290,7 +290,7 @@ TEST_F(ComponentModel, ContractsCanBeReadThroughAnOperation) {
   ASSERT_EQ(count_to.preconditions.size(), 2u);
   EXPECT_EQ(count_to.preconditions[0].literal, "above(?target, total)");
   EXPECT_FALSE(count_to.preconditions[0].description.empty());
-  EXPECT_EQ(count_to.effects, std::vector<std::string>{"total(?target)"});
+  EXPECT_EQ(count_to.effects, std::vector<std::string>{"total(counter, ?target)"});
   EXPECT_EQ(call.response.contracts[1].kind, "operation");
 
   call.request.name = "fly";

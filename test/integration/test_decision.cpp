@@ -350,6 +350,91 @@ TEST_F(Decision, AFailingStepIsRetriedThenTheGoalAborts) {
   EXPECT_EQ(result->observations.size(), 1u);  // the first get_features ran
 }
 
+// Replanning (issue 14, item 6): a step that fails is planned around from the observed state, within
+// EXECUTION's ~max_replans; when no plan avoids it, or no replan is left, the goal aborts with code FAILED.
+namespace {
+const std::vector<std::string> kPushGoal = {"pushed(red_cube, -x, 0.0, 0.06)", "observed(scene)"};
+
+xpersif::PlanStep outOfArena() {
+  return step("relocation", "go_to_pose", "xpersif/GoToPoseAction", {"?pose"}, {"(5.0, 5.0, 0.0)"});
+}
+
+std::vector<xpersif::PlanStep> observePushObserve() {
+  return {step("vision", "get_features", "xpersif/GetFeatures", {}, {}), pushStep("red_cube", "-x", "0.0", "0.06"),
+          step("vision", "get_features", "xpersif/GetFeatures", {}, {})};
+}
+
+xpersif::ExecutePlanResultConstPtr executeForGoal(ExecuteClient& client, const std::vector<xpersif::PlanStep>& steps,
+                                                  State* state) {
+  EXPECT_TRUE(client.waitForServer(ros::Duration(20.0)));
+  xpersif::ExecutePlanGoal goal;
+  goal.steps = steps;
+  goal.goal = kPushGoal;
+  client.sendGoal(goal);
+  EXPECT_TRUE(client.waitForResult(ros::Duration(240.0)));
+  *state = client.getState();
+  return client.getResult();
+}
+
+void setMaxReplans(int max_replans) {
+  const std::string execution = ns + "execution";
+  ros::param::set(execution + "/max_replans", max_replans);
+  ASSERT_TRUE(transition(execution, "deactivate").success);
+  const auto configured = transition(execution, "configure");
+  ASSERT_TRUE(configured.success) << configured.message;
+  ASSERT_TRUE(transition(execution, "activate").success);
+}
+}  // namespace
+
+TEST_F(Decision, AFailedStepIsReplannedAroundAndThePlanSucceeds) {
+  place("khepera", -0.3, 0.0, 0.0);
+  place("red_cube", -0.05, 0.1, 0.0);
+  ExecuteClient client(ns + "execution/execute_plan", true);
+  std::vector<xpersif::PlanStep> steps = {outOfArena()};
+  for (const auto& s : observePushObserve()) steps.push_back(s);
+  State state(State::LOST);
+  const auto result = executeForGoal(client, steps, &state);
+  ASSERT_EQ(state, State::SUCCEEDED) << state.getText();
+  ASSERT_TRUE(result);
+  EXPECT_TRUE(result->success);
+  EXPECT_EQ(result->code, xpersif::ResultCode::OK);
+  EXPECT_EQ(result->replans, 1u);
+  EXPECT_EQ(result->observations.size(), 2u);  // the new plan observed, pushed and observed again
+  ros::Duration(0.3).sleep();
+  EXPECT_GT(truth_->pose("red_cube").x - (-0.05), 0.03) << result->message;
+}
+
+TEST_F(Decision, AnObjectMovedAwayBeforeItsPushLeavesNoPlanAndTheGoalAbortsWithACode) {
+  place("khepera", -0.3, 0.0, 0.0);
+  // Moved by hand (XPERSim's set_pose) after the plan was made: pushed on -x it would now end in the wall.
+  place("red_cube", 0.42, 0.1, 0.0);
+  ExecuteClient client(ns + "execution/execute_plan", true);
+  State state(State::LOST);
+  const auto result = executeForGoal(client, observePushObserve(), &state);
+  ASSERT_EQ(state, State::ABORTED) << state.getText();
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->code, xpersif::ResultCode::FAILED);
+  EXPECT_EQ(result->failed_step, 1u);
+  EXPECT_EQ(result->replans, 1u);  // tried: the only push that reaches the goal is the one that failed
+  EXPECT_NE(result->message.find("found no plan"), std::string::npos) << result->message;
+  EXPECT_NE(result->message.find("no plan avoids the failed step"), std::string::npos) << result->message;
+  EXPECT_LT(std::abs(truth_->pose("red_cube").x - 0.42), 0.01);  // the push was refused, nothing moved
+}
+
+TEST_F(Decision, ReplansAreBoundedByMaxReplans) {
+  setMaxReplans(0);
+  ExecuteClient client(ns + "execution/execute_plan", true);
+  State state(State::LOST);
+  const auto result = executeForGoal(client, {outOfArena(), pushStep("red_cube", "-x", "0.0", "0.06")}, &state);
+  setMaxReplans(2);
+  ASSERT_EQ(state, State::ABORTED) << state.getText();
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->code, xpersif::ResultCode::FAILED);
+  EXPECT_EQ(result->failed_step, 0u);
+  EXPECT_EQ(result->replans, 0u);
+  EXPECT_NE(result->message.find("no replan left (~max_replans 0)"), std::string::npos) << result->message;
+}
+
 TEST_F(Decision, MalformedPlansAreRejected) {
   ExecuteClient client(ns + "execution/execute_plan", true);
   struct Case {

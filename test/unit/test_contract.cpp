@@ -14,6 +14,20 @@ TEST(Literal, ParsesAndPrints) {
   EXPECT_EQ(parseLiteral("idle()").arguments.size(), 0u);
 }
 
+TEST(Literal, ATupleIsOneArgument) {
+  const Literal l = parseLiteral("robot_at(robot,(0.100,  -0.2 , 1.5))");
+  ASSERT_EQ(l.arguments.size(), 2u);
+  EXPECT_EQ(l.arguments[1], "(0.100, -0.2, 1.5)");
+  EXPECT_EQ(l.toString(), "robot_at(robot, (0.100, -0.2, 1.5))");
+  EXPECT_EQ(ground("robot_at(robot, ?pose)", {{"?pose", "(0.1, 0.2, 0)"}}), "robot_at(robot, (0.1, 0.2, 0))");
+  EXPECT_THROW(parseLiteral("at(a, (b, (c)))"), ContractError);
+  EXPECT_THROW(parseLiteral("at(a, (b, c)"), ContractError);
+  EXPECT_THROW(parseLiteral("at(a, b))"), ContractError);
+  EXPECT_THROW(parseLiteral("at(a, (b,,c))"), ContractError);
+  EXPECT_THROW(parseLiteral("at(a, ())"), ContractError);
+  EXPECT_THROW(parseLiteral("at(a, (b) c)"), ContractError);
+}
+
 TEST(Literal, RejectsMalformedText) {
   EXPECT_THROW(parseLiteral("at robot"), ContractError);
   EXPECT_THROW(parseLiteral("(a)"), ContractError);

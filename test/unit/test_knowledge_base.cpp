@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <thread>
 
@@ -489,8 +490,8 @@ TEST(KnowledgeBase, RefusesFilesThatAreNotItsDatabase) {
   // A newer schema.
   const std::string newer = dir.file("newer.sqlite");
   { KnowledgeBase::open(newer); }
-  execRaw(newer, "PRAGMA user_version = 3");
-  EXPECT_NE(openError(newer).find("has schema version 3, newer than this program's (2)"), std::string::npos)
+  execRaw(newer, "PRAGMA user_version = 4");
+  EXPECT_NE(openError(newer).find("has schema version 4, newer than this program's (3)"), std::string::npos)
       << openError(newer);
   // A directory that does not exist.
   EXPECT_NE(openError(dir.file("no/such/dir/kb.sqlite")).find("cannot be opened"), std::string::npos);
@@ -565,6 +566,192 @@ TEST(KnowledgeBase, ResumeContinuesTheLatestUnfinishedRunOfThatName) {
   EXPECT_FALSE(kb->resumeRun("campaign").has_value());
 }
 
+namespace {
+/// What schema 3 added; dropping it turns a database back into schema 2's layout.
+const char* const kDropSchemaThree = "DROP TABLE facts; DROP TABLE effects; DROP TABLE calls; ";
+
+CallRecord call(std::int64_t run_id, double time, const std::string& component, const std::string& kind,
+                const std::string& name, std::vector<std::string> effects = {}) {
+  CallRecord c;
+  c.run_id = run_id;
+  c.time = time;
+  c.component = component;
+  c.kind = kind;
+  c.name = name;
+  c.outcome = kind == "command" ? "succeeded" : "ok";
+  if (kind == "operation") c.code = 0;
+  c.effects = std::move(effects);
+  c.duration = 0.25;
+  return c;
+}
+
+std::vector<std::string> factLiterals(KnowledgeBase& kb, std::int64_t run_id) {
+  std::vector<std::string> literals;
+  for (const auto& f : kb.facts(run_id)) literals.push_back(f.literal);
+  return literals;
+}
+}  // namespace
+
+TEST(KnowledgeBase, ASchemaTwoDatabaseIsMigratedToThreeAndKeepsItsExperiments) {
+  TempDir dir;
+  const std::string path = dir.file("kb.sqlite");
+  {
+    auto kb = KnowledgeBase::open(path);
+    const RunInfo run = kb->createRun("old", "{}", 1, "grid");
+    ExperimentRecord e = experimentNumber(run.id, 1);
+    e.design = "grid";
+    kb->recordExperiment(e);
+  }
+  execRaw(path, std::string(kDropSchemaThree) + "PRAGMA user_version=2;");  // as schema 2 wrote it
+  auto kb = KnowledgeBase::open(path);
+  EXPECT_EQ(countRows(path, "PRAGMA user_version"), 3);
+  const auto all = kb->experiments(1);
+  ASSERT_EQ(all.size(), 1u);
+  expectIsExperimentNumber(all[0], 1);
+  EXPECT_EQ(all[0].design, "grid");
+  EXPECT_TRUE(kb->facts(1).empty());
+  kb->recordCalls({call(1, 2.0, "manipulation", "command", "push", {"pushed(box, -x)"})});
+  EXPECT_EQ(factLiterals(*kb, 1), std::vector<std::string>{"pushed(box, -x)"});
+}
+
+TEST(KnowledgeBase, CallsAreStoredWithOutcomeCodeAndEffectsAndFilteredOnQuery) {
+  auto kb = KnowledgeBase::open(":memory:");
+  const RunInfo run = kb->createRun("r", "{}", 1, "random");
+  CallRecord refused = call(run.id, 1.0, "planner", "operation", "make_plan");
+  refused.outcome = "refused";
+  refused.code = 2;
+  refused.reason = "invalid request: the goal is empty";
+  const auto stored = kb->recordCalls({call(run.id, 0.5, "observation", "operation", "get_features", {"observed(scene)"}),
+                                       refused,
+                                       call(run.id, 2.0, "manipulation", "command", "push",
+                                            {"pushed(box, -x, 0.01, 0.05)", "not observed(scene)"}),
+                                       call(0, 0.1, "relocation", "operation", "stop", {"stopped(robot)"})});
+  ASSERT_EQ(stored.size(), 4u);
+  EXPECT_LT(stored[0].id, stored[1].id);
+
+  CallFilter all;
+  all.run_id = run.id;
+  bool more = true;
+  const auto calls = kb->calls(all, &more);
+  EXPECT_FALSE(more);
+  ASSERT_EQ(calls.size(), 3u);  // the call outside the run is not the run's
+  EXPECT_EQ(calls[0].name, "get_features");
+  EXPECT_EQ(calls[1].outcome, "refused");
+  ASSERT_TRUE(calls[1].code.has_value());
+  EXPECT_EQ(*calls[1].code, 2);
+  EXPECT_EQ(calls[1].reason, "invalid request: the goal is empty");
+  EXPECT_FALSE(calls[2].code.has_value());  // commands carry no ResultCode
+  EXPECT_EQ(calls[2].effects, (std::vector<std::string>{"pushed(box, -x, 0.01, 0.05)", "not observed(scene)"}));
+  EXPECT_EQ(calls[2].duration, 0.25);
+
+  CallFilter commands = all;
+  commands.kind = "command";
+  ASSERT_EQ(kb->calls(commands).size(), 1u);
+  CallFilter planner = all;
+  planner.component = "planner";
+  ASSERT_EQ(kb->calls(planner).size(), 1u);
+  EXPECT_EQ(kb->calls(planner)[0].name, "make_plan");
+  CallFilter late = all;
+  late.since = 1.0;
+  EXPECT_EQ(kb->calls(late).size(), 2u);  // at or after
+  CallFilter first = all;
+  first.limit = 2;
+  const auto page = kb->calls(first, &more);
+  EXPECT_TRUE(more);
+  ASSERT_EQ(page.size(), 2u);
+  EXPECT_EQ(page[1].name, "make_plan");
+  CallFilter outside;
+  ASSERT_EQ(kb->calls(outside).size(), 1u);
+  EXPECT_EQ(kb->calls(outside)[0].name, "stop");
+
+  auto refuses = [&](const std::function<void(CallFilter&)>& spoil, const std::string& field) {
+    CallFilter bad = all;
+    spoil(bad);
+    try {
+      kb->calls(bad);
+      ADD_FAILURE() << "accepted a bad " << field;
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  refuses([](CallFilter& f) { f.kind = "lifecycle"; }, "kind");
+  refuses([](CallFilter& f) { f.limit = 0; }, "limit");
+  refuses([](CallFilter& f) { f.limit = KnowledgeBase::kMaxCallsPerQuery + 1; }, "limit");
+  refuses([](CallFilter& f) { f.since = std::nan(""); }, "since");
+  refuses([](CallFilter& f) { f.run_id = -1; }, "run_id");
+  refuses([](CallFilter& f) { f.component = std::string(200, 'c'); }, "component");
+}
+
+TEST(KnowledgeBase, FactsFollowTheLatestEffectPerPredicateAndSubject) {
+  auto kb = KnowledgeBase::open(":memory:");
+  const RunInfo run = kb->createRun("r", "{}", 1, "random");
+  const RunInfo other = kb->createRun("other", "{}", 1, "random");
+  kb->recordCalls({call(run.id, 1.0, "observation", "operation", "get_features", {"observed(scene)"}),
+                   call(run.id, 2.0, "relocation", "command", "go_to_pose", {"robot_at(robot, (0.1, 0.2, 0))"}),
+                   call(run.id, 3.0, "manipulation", "command", "push", {"pushed(box, -x, 0.01, 0.05)", "not observed(scene)"}),
+                   call(other.id, 3.0, "manipulation", "command", "push", {"pushed(ball, +y, 0, 0.05)"})});
+  EXPECT_EQ(factLiterals(*kb, run.id),
+            (std::vector<std::string>{"pushed(box, -x, 0.01, 0.05)", "robot_at(robot, (0.1, 0.2, 0))"}));
+  // The same subject again: the later effect replaces the earlier one; another subject adds a fact.
+  kb->recordCalls({call(run.id, 4.0, "relocation", "command", "go_to_pose", {"robot_at(robot, (0.3, 0.2, 1))"}),
+                   call(run.id, 5.0, "manipulation", "command", "push", {"pushed(cup, +x, 0, 0.1)", "not observed(scene)"}),
+                   call(run.id, 6.0, "observation", "operation", "get_features", {"observed(scene)"})});
+  const auto facts = kb->facts(run.id);
+  EXPECT_EQ(factLiterals(*kb, run.id),
+            (std::vector<std::string>{"observed(scene)", "pushed(box, -x, 0.01, 0.05)", "pushed(cup, +x, 0, 0.1)",
+                                      "robot_at(robot, (0.3, 0.2, 1))"}));
+  ASSERT_EQ(facts.size(), 4u);
+  EXPECT_EQ(facts[3].component, "relocation");
+  EXPECT_EQ(facts[3].time, 4.0);
+  EXPECT_EQ(factLiterals(*kb, other.id), std::vector<std::string>{"pushed(ball, +y, 0, 0.05)"});
+}
+
+TEST(KnowledgeBase, ABadCallInABatchIsRefusedAndNothingOfTheBatchIsStored) {
+  TempDir dir;
+  const std::string path = dir.file("kb.sqlite");
+  auto kb = KnowledgeBase::open(path);
+  const RunInfo run = kb->createRun("r", "{}", 1, "random");
+  const CallRecord good = call(run.id, 1.0, "observation", "operation", "get_features", {"observed(scene)"});
+  auto expectRefused = [&](CallRecord bad, const std::string& words) {
+    try {
+      kb->recordCalls({good, bad});
+      ADD_FAILURE() << "accepted a bad call, expected: " << words;
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  CallRecord c = good;
+  c.time = std::nan("");
+  expectRefused(c, "calls[1].time");
+  c = good;
+  c.kind = "lifecycle";
+  expectRefused(c, "calls[1].kind");
+  c = good;
+  c.component = "";
+  expectRefused(c, "calls[1].component is empty");
+  c = good;
+  c.effects = {"pushed(box"};
+  expectRefused(c, "calls[1].effects[0] 'pushed(box' is malformed");
+  c = good;
+  c.effects = {"pushed(?object)"};
+  expectRefused(c, "has the parameter ?object");
+  c = good;
+  c.effects.assign(KnowledgeBase::kMaxEffectsPerCall + 1, "observed(scene)");
+  expectRefused(c, "calls[1].effects");
+  c = good;
+  c.code = 255;
+  expectRefused(c, "calls[1].code");
+  c = good;
+  c.duration = -1.0;
+  expectRefused(c, "calls[1].duration");
+  c = good;
+  c.run_id = 99;
+  expectRefused(c, "calls[1].run_id 99 is not a run");  // found inside the transaction: rolled back
+  EXPECT_EQ(countRows(path, "SELECT count(*) FROM calls"), 0);
+  EXPECT_EQ(countRows(path, "SELECT count(*) FROM effects"), 0);
+  EXPECT_TRUE(kb->facts(run.id).empty());
+}
+
 TEST(KnowledgeBase, ASchemaOneDatabaseIsMigratedAndKeepsItsExperiments) {
   TempDir dir;
   const std::string path = dir.file("kb.sqlite");
@@ -573,9 +760,11 @@ TEST(KnowledgeBase, ASchemaOneDatabaseIsMigratedAndKeepsItsExperiments) {
     const RunInfo run = kb->createRun("old", "{}", 1, "grid");
     kb->recordExperiment(experimentNumber(run.id, 1));
   }
-  execRaw(path, "ALTER TABLE experiments DROP COLUMN design; PRAGMA user_version=1;");  // as schema 1 wrote it
+  // As schema 1 wrote it: no design, no calls.
+  execRaw(path, std::string(kDropSchemaThree) + "ALTER TABLE experiments DROP COLUMN design; PRAGMA user_version=1;");
   auto kb = KnowledgeBase::open(path);
   EXPECT_EQ(countRows(path, "PRAGMA user_version"), KnowledgeBase::kSchemaVersion);
+  EXPECT_EQ(countRows(path, "SELECT count(*) FROM calls"), 0);  // migrated through 2 to 3
   const auto all = kb->experiments(1);
   ASSERT_EQ(all.size(), 1u);
   expectIsExperimentNumber(all[0], 1);

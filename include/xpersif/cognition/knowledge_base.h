@@ -15,12 +15,21 @@
  *    set) on `~experiments` (not latched, queue 100). run_id 0 means the current run.
  *  - `get_experiments` (GetExperiments): a run's records in seq order, optionally of one status.
  *  - `record_goal` (RecordGoal), `get_notions` (GetNotions).
+ *  - `get_calls` (GetCalls): the stored command and operation calls of a run (0: the current one), oldest
+ *    first, filtered by component, kind and since, at most `limit` (1..1000, 0: 100); a bad filter is INVALID.
+ *  - `get_facts` (GetFacts): the run's facts, the latest effect per predicate and subject (core::Fact).
  * It stores what MACHINELEARNING publishes: the models on `~model_topic` (default machine_learning/model) and
  * the notions on `~notions_topic` (machine_learning/notions), for the run each names.
+ * It stores every component's command outcomes (not their acceptance) and operation calls from the shared
+ * `~events_topic` (default component_events, where every component's EventSink publishes) under the run that
+ * is current when they arrive: buffered, and written in one transaction every `~event_flush_period` s of wall
+ * time (and before get_calls and get_facts answer), so the loop's many calls cost one commit each period and a
+ * slow disk never holds a component up (it only publishes). Calls that arrive while the KB is down are lost.
  *
  * Parameters (configure): `~database` (default `$ROS_HOME/xpersif/knowledge.db`, ROS_HOME defaulting to
  * ~/.ros; missing directories are created; a file that is not an XPERSIF knowledge base fails the configure
- * with the reason), `~model_topic`, `~notions_topic`.
+ * with the reason), `~model_topic`, `~notions_topic`, `~events_topic`, `~event_flush_period` (s, 0.2, 0.01..10),
+ * `~max_pending_calls` (10000: beyond it the oldest buffered calls are dropped with a warning).
  *
  * Not kept: the record's `design` is published with the record but not stored (the core schema has no column
  * for it), so get_experiments returns it empty.
@@ -30,9 +39,13 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <vector>
 
+#include "xpersif/ComponentEvent.h"
 #include "xpersif/FinishRun.h"
+#include "xpersif/GetCalls.h"
 #include "xpersif/GetExperiments.h"
+#include "xpersif/GetFacts.h"
 #include "xpersif/GetNotions.h"
 #include "xpersif/LearnedModel.h"
 #include "xpersif/Notions.h"
@@ -68,6 +81,10 @@ class KnowledgeBaseComponent : public Component {
   void announceRun(std::int64_t run_id);
   void onModel(const LearnedModel::ConstPtr& model);
   void onNotions(const Notions::ConstPtr& notions);
+  /// Buffer a command outcome or operation call for the next flush.
+  void onEvent(const ComponentEvent::ConstPtr& event);
+  /// Write the buffered calls in one transaction (one by one, dropping the bad ones, if the batch is refused).
+  void flushCalls();
 
   mutable std::mutex mutex_;
   /// The set-up's catalogue, read from XPERSim's scene the first time a record needs it (so that the knowledge
@@ -78,10 +95,17 @@ class KnowledgeBaseComponent : public Component {
   std::shared_ptr<core::KnowledgeBase> kb_;
   std::int64_t current_run_ = 0;
   std::string model_topic_ = "machine_learning/model", notions_topic_ = "machine_learning/notions";
+  std::string events_topic_ = kSharedEventsTopic;
+  double event_flush_period_ = 0.2;
+  std::size_t max_pending_calls_ = 10000;
+  std::mutex pending_mutex_;
+  std::vector<core::CallRecord> pending_calls_;  // guarded by pending_mutex_
+  std::mutex flush_mutex_;                       // one flush at a time, in arrival order
 
   // ROS handles last.
   ros::Publisher experiments_pub_, run_pub_;
-  ros::Subscriber model_sub_, notions_sub_;
+  ros::Subscriber model_sub_, notions_sub_, events_sub_;
+  ros::WallTimer flush_timer_;
 };
 
 }  // namespace xpersif

@@ -228,6 +228,7 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
       if (!response.success) event = events_.make(ComponentEvent::OPERATION, op, "failed", response.message);
     }
     detail::setCode(response, code);
+    event.code = code;
     event.request = toYaml(request);
     event.response = toYaml(response);
     event.duration = (ros::Time::now() - started).toSec();

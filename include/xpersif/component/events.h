@@ -32,7 +32,11 @@ std::string toYaml(const Message& message) {
   return text;
 }
 
-/// Publishes a component's events on <component>/events.
+/// The topic, in the components' common namespace, on which every component also publishes its events, so that
+/// KNOWLEDGEBASE stores the calls of all components with one subscription and no list of their names.
+constexpr const char* kSharedEventsTopic = "component_events";
+
+/// Publishes a component's events on <component>/events and on the shared kSharedEventsTopic of its namespace.
 class EventSink {
  public:
   EventSink(ros::NodeHandle& pnh, std::string component);
@@ -44,7 +48,7 @@ class EventSink {
 
  private:
   std::string component_;
-  ros::Publisher publisher_;
+  ros::Publisher publisher_, shared_publisher_;
 };
 
 }  // namespace xpersif

@@ -93,9 +93,49 @@ struct EventRecord {
   std::string component, kind, text;
 };
 
+/// One command or operation call of a component, as its ~events reported it (outcome and effects).
+struct CallRecord {
+  std::int64_t id = 0;        ///< set by the database, increasing in arrival order
+  std::int64_t run_id = 0;    ///< 0: outside any run
+  double time = 0.0;          ///< s, the caller's (simulated) clock when the call ended
+  std::string component;      ///< who served it, e.g. "manipulation"
+  std::string kind;           ///< "command" or "operation"
+  std::string name;           ///< e.g. "push"
+  std::string outcome;        ///< e.g. "ok", "refused", "failed", "succeeded", "aborted", "preempted", "rejected"
+  std::optional<int> code;    ///< the operation's ResultCode (0..254); none for commands
+  std::string reason;         ///< the component's sentence; may be empty
+  std::vector<std::string> effects;  ///< grounded literals that hold after a successful call
+  double duration = 0.0;      ///< s, >= 0
+};
+
+/// Which calls calls() returns. Every filter is optional; the result is bounded by limit.
+struct CallFilter {
+  std::int64_t run_id = 0;    ///< 0: calls outside any run
+  std::string component;      ///< "": any
+  std::string kind;           ///< "": any, else "command" or "operation"
+  double since = 0.0;         ///< calls whose time is >= since
+  std::size_t limit = 100;    ///< 1 .. KnowledgeBase::kMaxCallsPerQuery
+};
+
+/**
+ * The current truth of one (predicate, subject) pair: the latest effect that set it. The subject is a
+ * literal's first argument ("" for none), so `at(box, 0.1, 0.2)` replaces an earlier `at(box, ...)`, and
+ * `not at(box, ...)` removes it.
+ */
+struct Fact {
+  std::string literal;        ///< e.g. "pushed(box_1, -x, 0.01, 0.05)"
+  std::string component;      ///< whose call set it
+  double time = 0.0;          ///< when that call ended
+  std::int64_t call_id = 0;
+};
+
 class KnowledgeBase {
  public:
-  static constexpr int kSchemaVersion = 2;  ///< 2: experiments keep their design (1 is migrated on open)
+  /// 2: experiments keep their design; 3: calls, their effects and the facts they imply (1 and 2 are migrated
+  /// on open).
+  static constexpr int kSchemaVersion = 3;
+  static constexpr std::size_t kMaxCallsPerQuery = 1000;
+  static constexpr std::size_t kMaxEffectsPerCall = 64;
   static constexpr std::int32_t kApplicationId = 0x58505346;  ///< "XPSF"
   static constexpr std::size_t kMaxTextLength = 4096;           ///< reasons, event texts, notion texts
   static constexpr std::size_t kMaxBlobBytes = 64u << 20;       ///< one model
@@ -152,6 +192,17 @@ class KnowledgeBase {
                    const std::string& text);
   /// The run's last @p limit events, oldest first.
   std::vector<EventRecord> events(std::int64_t run_id, std::size_t limit = 1000);
+
+  // ---- calls and facts ----
+  /// Validate every call, then store them all in one transaction (all or nothing) with their effects, and
+  /// update the facts of each call's run. Returns the calls with their ids. Bad input throws ValidationError
+  /// (naming the call's index and field) and writes nothing; an unknown run_id is bad input.
+  std::vector<CallRecord> recordCalls(const std::vector<CallRecord>& calls);
+  /// The calls that match @p filter, oldest first (by time, then id), at most filter.limit of them; @p more
+  /// (if given) tells whether further calls matched. Throws ValidationError for a bad filter.
+  std::vector<CallRecord> calls(const CallFilter& filter, bool* more = nullptr);
+  /// The facts of @p run_id (0: outside any run), sorted by literal.
+  std::vector<Fact> facts(std::int64_t run_id);
 
   /// For crash tests only: called at named points inside write transactions (e.g.
   /// "experiment:inserted", before COMMIT), so a test can kill the process exactly there.

@@ -10,8 +10,14 @@
  *  - xpersif/GetFeatures: a call of the service <component>/<operator> with max_age ~max_age (1 s). After a
  *    command, the feature vector must be newer than that command's end (the scene has changed): the call is
  *    repeated every 50 ms of wall time, for at most ~fresh_timeout seconds of ROS time, until it is.
- * A failed step is tried again up to goal.retries times; then the goal ends ABORTED with failed_step (0-based)
- * and a message naming the step and the last reason. A cancel cancels the running sub-goal and ends the goal
+ * A failed step is tried again up to goal.retries times. If it still fails and the goal names the literals the
+ * plan reaches (`goal.goal`, with `goal.state` what held when it was planned), EXECUTION replans the rest with
+ * core::replan from the observed state (goal.state plus the effects of every step that succeeded, applied as the
+ * steps' contracts say), excluding the failed step, and runs the new plan; parameters the new plan leaves open
+ * take the values the old plan gave the same operator. At most ~max_replans times per goal; then, or when no
+ * plan is found, or without goal.goal, the goal ends ABORTED (code FAILED) with failed_step (0-based, in the plan
+ * being run) and a message naming the step, the last reason and why no replan followed. The operators for
+ * replanning are the contracts of ~components (read with get_contracts when a goal with goal.goal starts). A cancel cancels the running sub-goal and ends the goal
  * PREEMPTED. Feedback after each attempt: the step's index and what happened.
  * Result: observations (every get_features result, in order) and robot_poses (where each command left the
  * robot, as the command reported it).
@@ -20,7 +26,9 @@
  * per action name, with their own callback threads.
  *
  * Parameters (configure): ~max_age (s, 1.0), ~fresh_timeout (s, 5.0), ~server_timeout (s to wait for an
- * action server or service, 10.0), ~step_timeout (s of ROS time per command attempt, 300).
+ * action server or service, 10.0), ~step_timeout (s of ROS time per command attempt, 300), ~max_replans (per
+ * goal, 2, 0..10), ~components ([observation, vision, manipulation, relocation]) and ~prefer ([vision]): the
+ * operators for replanning and which come first among equally short plans, as PLANNER's; ~max_depth (8).
  */
 #pragma once
 
@@ -36,6 +44,7 @@
 #include "xpersif/PushAction.h"
 #include "xpersif/TurnToAction.h"
 #include "xpersif/component/component.h"
+#include "xpersif/core/planner.h"
 
 namespace xpersif {
 
@@ -68,6 +77,9 @@ class Execution : public Component {
                         bool& cancelled, ResultPtr* result);
   std::string getFeatures(ExecutePlan::Context& context, const std::string& service, ExecutePlanResult& result);
   CommandOutcome execute(ExecutePlan::Context& context, ExecutePlanResult& result);
+  /// The qualified contracts of ~components, read with their get_contracts (in the command thread); throws
+  /// UnavailableError naming a component that did not answer.
+  std::vector<core::Contract> readOperators(ExecutePlan::Context& context);
 
   template <class Action>
   actionlib::SimpleActionClient<Action>& client(const std::string& action);
@@ -77,6 +89,9 @@ class Execution : public Component {
   double fresh_timeout_ = 5.0;
   double server_timeout_ = 10.0;
   double step_timeout_ = 300.0;
+  int max_replans_ = 2;
+  int max_depth_ = 8;
+  std::vector<std::string> components_{"observation", "vision", "manipulation", "relocation"}, prefer_{"vision"};
   ros::Time observe_after_;  // observations must be newer: the plan's start, then its last command's end (command thread)
   std::map<std::string, std::shared_ptr<void>> clients_;  // action name -> SimpleActionClient<Action>
 };

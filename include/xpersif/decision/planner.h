@@ -19,9 +19,14 @@
  * The search is a core::PlanSearch chosen by name (README "Plugins"): ~search_type breadth_first (shortest
  * plans), greedy, or another package's; an undeclared one fails configure with the list of declared searches.
  *
+ * With `state_from_knowledge_base`, the initial state is `state` plus the current run's facts, which make_plan
+ * asks KNOWLEDGEBASE's get_facts for (a KB that is not offered, or not within ~knowledge_base_timeout, makes the
+ * call UNAVAILABLE; one that refuses, FAILED, with its sentence).
+ *
  * Parameters (configure): ~components ([observation, vision, manipulation, relocation]), ~prefer ([vision]),
  * ~max_depth (8), ~search_type (breadth_first), ~retry_period (s of wall time between rounds of get_contracts
- * calls, 1.0).
+ * calls, 1.0), ~knowledge_base (the KB's name, knowledge_base), ~knowledge_base_timeout (s of wall time to wait
+ * for get_facts, 2.0).
  */
 #pragma once
 
@@ -79,6 +84,8 @@ class Planner : public Component {
   /// "" when the contracts of every component are loaded, else which are missing.
   std::string whyNotLoaded() const;
   void makePlan(const MakePlan::Request& request, MakePlan::Response& response);
+  /// The current run's facts from KNOWLEDGEBASE's get_facts; throws UnavailableError or runtime_error.
+  std::vector<std::string> knowledgeBaseFacts();
 
   AlgorithmLoader<core::PlanSearch> searches_;  // before search_: it holds the search's code (configure only)
   mutable std::mutex mutex_;
@@ -87,6 +94,8 @@ class Planner : public Component {
   std::vector<std::string> prefer_;
   int max_depth_ = 8;
   double retry_period_ = 1.0;
+  std::string knowledge_base_ = "knowledge_base";
+  double knowledge_base_timeout_ = 2.0;
   std::vector<ComponentContracts> loaded_;  // in the order of components_, as they answer
   std::vector<core::Contract> operators_;   // built once every component has answered
 

@@ -4,7 +4,7 @@
  *        component-model tests): one command with a contract, one operation with validation.
  *
  * - command `~count_to` (xpersif/CountTo): count the total up to a target, one step per period.
- *   Preconditions: the target is above the current total and within `~limit`. Effect: total(?target).
+ *   Preconditions: the target is above the current total and within `~limit`. Effect: total(counter, ?target).
  * - operation `~add_values` (xpersif/AddValues): add finite numbers, at most `~max_values` per call.
  *
  * Parameters (read on configure): `~limit` (default 1e6), `~max_values` (default 1000),
