@@ -51,7 +51,7 @@ void GaussianProcessPushModel::configure(const PushModelConfig& config) {
 }
 
 void GaussianProcessPushModel::check(const PushInput& input, const std::string& field) const {
-  checkPushInput(config_, input, field);
+  checkPushInput(config_.feature_names, input, field);
 }
 
 std::vector<double> GaussianProcessPushModel::scaledRow(const PushInput& input) const {

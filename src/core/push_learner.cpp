@@ -126,21 +126,7 @@ PushLearner::PushLearner(PushLearner&&) noexcept = default;
 PushLearner& PushLearner::operator=(PushLearner&&) noexcept = default;
 
 void PushLearner::validate(const PushInput& input, const std::string& field) const {
-  requireExperiment(field + ".experiment", input.experiment);
-  if (input.object.name != input.experiment.object) {
-    throw ValidationError(field + ".object.name '" + input.object.name + "' is not the pushed object '" +
-                          input.experiment.object + "'");
-  }
-  requireFinite(field + ".object.x", input.object.x);
-  requireFinite(field + ".object.y", input.object.y);
-  requireFinite(field + ".object.yaw", input.object.yaw);
-  for (const auto& name : config_.feature_names) {
-    const auto it = input.object.extra.find(name);
-    if (it == input.object.extra.end()) {
-      throw ValidationError(field + ".object.extra has no feature '" + name + "'; the learner uses it as an input");
-    }
-    requireFinite(field + ".object.extra[" + name + "]", it->second);
-  }
+  checkPushInput(config_.feature_names, input, field);
 }
 
 std::vector<float> PushLearner::encode(const PushInput& input) const {

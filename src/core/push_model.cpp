@@ -33,7 +33,7 @@ void checkPushModelConfig(const PushModelConfig& c) {
   }
 }
 
-void checkPushInput(const PushModelConfig& config, const PushInput& input, const std::string& field) {
+void checkPushInput(const std::vector<std::string>& feature_names, const PushInput& input, const std::string& field) {
   requireExperiment(field + ".experiment", input.experiment);
   if (input.object.name != input.experiment.object) {
     throw ValidationError(field + ".object.name '" + input.object.name + "' is not the pushed object '" +
@@ -42,7 +42,7 @@ void checkPushInput(const PushModelConfig& config, const PushInput& input, const
   requireFinite(field + ".object.x", input.object.x);
   requireFinite(field + ".object.y", input.object.y);
   requireFinite(field + ".object.yaw", input.object.yaw);
-  for (const auto& name : config.feature_names) {
+  for (const auto& name : feature_names) {
     const auto it = input.object.extra.find(name);
     if (it == input.object.extra.end()) {
       throw ValidationError(field + ".object.extra has no feature '" + name + "'; the learner uses it as an input");
@@ -52,7 +52,7 @@ void checkPushInput(const PushModelConfig& config, const PushInput& input, const
 }
 
 std::vector<double> encodePushInput(const PushModelConfig& config, const PushInput& input) {
-  checkPushInput(config, input, "input");
+  checkPushInput(config.feature_names, input, "input");
   const double angle = pushAngleInObject(input.experiment.side);
   std::vector<double> row{std::cos(angle), std::sin(angle), input.experiment.offset, input.experiment.distance};
   for (const auto& name : config.feature_names) row.push_back(input.object.extra.at(name));

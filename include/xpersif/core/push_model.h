@@ -96,8 +96,8 @@ class PushModel {
 /// Throws ValidationError for invalid samples.
 std::vector<Notion> deriveNotions(const std::vector<PushSample>& samples);
 
-/// Check the parts of @p input every model needs (the push, the object's pose, the features in @p config).
-void checkPushInput(const PushModelConfig& config, const PushInput& input, const std::string& field);
+/// Check the parts of @p input every model needs (the push, the object's pose, the features @p feature_names).
+void checkPushInput(const std::vector<std::string>& feature_names, const PushInput& input, const std::string& field);
 /// Check the shared parts of @p config (names, scales, priors, identities).
 void checkPushModelConfig(const PushModelConfig& config);
 /// The input row both of this package's models use: cos, sin of the push direction in the object's frame,
