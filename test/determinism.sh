@@ -34,7 +34,7 @@ take() {  # take NAME [resume|kill]
   XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
   set -u
   roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch world:="$world" database:="$work/$name.db" \
-    run_dir:="$work/$name" snapshot:=false >"$work/$name.launch.log" 2>&1 &
+    run_dir:="$work/$name" snapshot:=false trace_file:="${TRACE:+$work/$name.trace}" >"$work/$name.launch.log" 2>&1 &
   launch=$!
   xpersif wait --timeout 180 /xpersif/loop_model >/dev/null || { tail -20 "$work/$name.launch.log"; exit 1; }
   local started=$(date +%s)

@@ -121,9 +121,16 @@ bool LockstepClient::sleepFor(const ros::Duration& duration, const std::function
     }
     return !stopped();
   }
-  Tick tick = join();
-  const ros::Time end = tick.stamp + duration;
-  while (tick.stamp < end || tick.phase == LockstepTick::SENSE) {
+  // Counted from the first tick it acts in, not from the tick it joined in: joined in an ACT phase, that is the
+  // next tick, and counting from the join's stamp stepped one tick less (a cold start's settling got other physics).
+  std::optional<Tick> first = reportAndWait(join(), {}, stop);
+  if (!first) {
+    leave();
+    return false;
+  }
+  Tick tick = *first;
+  const ros::Time end = first->stamp + duration;
+  while (tick.stamp < end) {
     auto next = reportAndWait(tick, {}, stop);
     if (!next) {
       leave();
@@ -142,7 +149,7 @@ void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
 }
 
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
-  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle, message->physics_time};
+  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time};
   std::function<void(const Tick&)> callback;
   {
     std::lock_guard<std::mutex> lock(mutex_);

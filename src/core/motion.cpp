@@ -8,6 +8,7 @@
 #include <queue>
 #include <sstream>
 
+#include "xpersif/core/experiment.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif::core {
@@ -607,7 +608,7 @@ std::string PushOptions::check() const {
   return p;
 }
 
-std::string checkPushSide(const std::string& side) { return checkOneOf("side", side, {"-x", "+x", "-y", "+y"}); }
+std::string checkPushSide(const std::string& side) { return checkOneOf("side", side, pushSides()); }
 
 PushPlan planPush(const Obstacle& object, const PushRequest& request, double robot_radius,
                   const ArenaGeometry& arena, const std::vector<Obstacle>& others, const PushOptions& options) {

@@ -150,6 +150,7 @@ void XPerSim::declareOperations() {
         response.complete = lockstep_->phaseComplete();
         response.message = request.participant + (request.join ? " joined" : " left") + " at tick " +
                            std::to_string(response.tick);
+        traceLocked(response.message);
         lockstep_wake_.notify_all();
       },
       false);
@@ -186,6 +187,7 @@ void XPerSim::declareOperations() {
       [this](const SetPose::Request& request, SetPose::Response& response) {
         std::lock_guard<std::mutex> lock(world_mutex_);
         world_->setPose(request.name, fromPoseMsg(request.pose));  // checks the arena bounds
+        traceLocked("set_pose " + request.name);
         publishFrameLocked();
         publishSensorsLocked();
         response.message = request.name + " placed";
@@ -234,6 +236,8 @@ void XPerSim::onConfigure() {
   pnh.param("participant_timeout", participant_timeout, participant_timeout);
   double idle_period = 0.05;
   pnh.param("idle_period", idle_period, idle_period);
+  std::string trace_file;
+  pnh.param("trace_file", trace_file, trace_file);
   core::requireInRange("~idle_period", idle_period, 1e-3, 10.0);
   core::requireInRange("~tick_period", tick_period, 1e-4, 1.0);
   core::requireInRange("~participant_timeout", participant_timeout, 0.01, 3600.0);
@@ -261,6 +265,12 @@ void XPerSim::onConfigure() {
   idle_period_ = idle_period;
   idle_time_ = 0;
   lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
+  trace_.reset();
+  if (!trace_file.empty()) {
+    trace_ = std::make_unique<std::ofstream>(trace_file, std::ios::app);
+    if (!*trace_) throw std::runtime_error("~trace_file: cannot write '" + trace_file + "'");
+    traceLocked("configure world=" + world_file + " mode=" + mode);
+  }
 
   ros::NodeHandle& nh = nodeHandle();
   if (!clock_pub_) {
@@ -286,6 +296,9 @@ void XPerSim::onConfigure() {
           if (why.empty()) {
             std::lock_guard<std::mutex> lock(world_mutex_);
             if (world_) world_->setVelocity(twist->linear.x, twist->angular.z);
+            char line[96];
+            std::snprintf(line, sizeof line, "cmd_vel v=%a w=%a", twist->linear.x, twist->angular.z);
+            traceLocked(line);
             return;
           }
           ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << why << "; the last command stays");
@@ -298,6 +311,7 @@ void XPerSim::onConfigure() {
           try {
             std::lock_guard<std::mutex> lock(world_mutex_);
             if (world_) world_->setWheelSpeeds(speeds->left, speeds->right);
+            traceLocked("wheel_speeds");
           } catch (const core::ValidationError& e) {
             ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << e.what() << "; the last command stays");
             events().publish(events().make(ComponentEvent::OPERATION, "wheel_speeds", "refused", e.what()));
@@ -498,6 +512,21 @@ void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::strin
   tick_pub_.publish(tick);
 }
 
+void XPerSim::traceLocked(const std::string& event) {
+  if (!trace_ || !world_) return;
+  char head[64];
+  std::snprintf(head, sizeof head, "step %llu t=%a ", static_cast<unsigned long long>(world_->stepCount()), world_->time());
+  *trace_ << head << event << '\n';
+  for (const auto& [body, pose] : world_->dynamicTransforms()) {
+    const Eigen::Quaterniond q(pose.rotation());
+    char line[256];
+    std::snprintf(line, sizeof line, "  %s %a %a %a %a %a %a %a", body.c_str(), pose.translation().x(),
+                  pose.translation().y(), pose.translation().z(), q.w(), q.x(), q.y(), q.z());
+    *trace_ << line << '\n';
+  }
+  trace_->flush();
+}
+
 void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
   std::lock_guard<std::mutex> lock(world_mutex_);
   if (!lockstep_) return;
@@ -524,6 +553,7 @@ void XPerSim::lockstepLoop() {
       last_problem_ = "lockstep participant '" + late + "' did not report tick " + std::to_string(lockstep_->tick()) +
                       " within " + core::describeNumber(lockstep_->timeout()) + " s; it was dropped and time goes on";
       last_problem_wall_ = now;
+      traceLocked("dropped " + late);
       ROS_WARN_STREAM(name() << ": " << last_problem_);
       events().publish(events().make(ComponentEvent::OPERATION, "lockstep", "dropped", last_problem_));
     }
@@ -550,6 +580,14 @@ void XPerSim::lockstepLoop() {
         ++idle_ticks_;
       } else {
         for (int i = 0; i < steps_per_tick_; ++i) physicsStepLocked();
+        if (trace_) {
+          char line[160];
+          std::snprintf(line, sizeof line, "tick %llu drives=%d v=%a w=%a", static_cast<unsigned long long>(lockstep_->tick()),
+                        command.drives ? 1 : 0, command.linear, command.angular);
+          std::string participants;
+          for (const auto& p : lockstep_->participants()) participants += " " + p;
+          traceLocked(line + participants);
+        }
       }
       last_tick_wall_ = now;
       last_tick_idle_ = idle;

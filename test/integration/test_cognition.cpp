@@ -200,6 +200,9 @@ TEST_F(Cognition, RecordsLearnsMotivatesAndRestores) {
   ASSERT_GT(run, 0u);
   EXPECT_TRUE(runs.waitForMatch([&](const std_msgs::UInt64& m) { return m.data == run; }, 30.0));
   ASSERT_TRUE(models.waitForMatch([&](const LearnedModel& m) { return m.run_id == run && m.samples == 0; }, 60.0));
+  // MOTIVATION too has taken the run (its restore from the KB is done): every push below then reaches it as one
+  // message. Pushes stored before that would come back in one restore, as one message for several.
+  ASSERT_TRUE(motivations.waitForMatch([&](const Motivation& m) { return m.run_id == run && m.experiments == 0; }, 60.0));
 
   // ---- 30 pushes: predict, record, and the model follows sample by sample ----
   const int kPushes = 30;

@@ -31,6 +31,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <fstream>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -73,6 +74,9 @@ class XPerSim : public Component {
   /// Lockstep mode: the coordinator's loop (world_mutex_ held while it works, released while it waits).
   void lockstepLoop();
   void publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh);
+  /// Debug aid (~trace_file): one line per event that changes the world, and every body's pose after each
+  /// stepped tick, at full precision, so two takes of a campaign can be diffed to their first difference.
+  void traceLocked(const std::string& event);
   void onLockstepDone(const LockstepDone::ConstPtr& done);
 
   // World and its settings; guarded by world_mutex_.
@@ -90,6 +94,7 @@ class XPerSim : public Component {
   std::uint64_t blow_ups_ = 0;
   // Lockstep mode; guarded by world_mutex_. lockstep_wake_ wakes the coordinator and the step operation.
   std::unique_ptr<core::LockstepCoordinator> lockstep_;
+  std::unique_ptr<std::ofstream> trace_;
   double tick_period_ = 0.02;
   int steps_per_tick_ = 10;
   std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
