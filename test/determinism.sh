@@ -10,7 +10,6 @@
 # (A whole system killed and restarted cannot resume deterministically yet: the world's state would have to be
 # restored from a checkpoint, bit for bit, with the physics clock; see the issue 13 note.)
 # Usage: determinism.sh [WORLD [DESIGN]]   (default: worlds/default.yaml, curiosity)
-# Not in the suite yet: 1 take in 28 still differed (a cold first start; issue 13 note).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 world=${1:-$repo/worlds/default.yaml}
