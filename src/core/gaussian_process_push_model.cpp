@@ -219,21 +219,12 @@ void GaussianProcessPushModel::load(const std::string& bytes) {
     }
     for (const auto& node : list) {
       if (!node.IsMap()) badModel("a sample is not a map");
-      PushSample s;
-      s.input.experiment.object = node["object"].as<std::string>();
-      s.input.experiment.side = node["side"].as<std::string>();
-      s.input.experiment.offset = node["offset"].as<double>();
-      s.input.experiment.distance = node["distance"].as<double>();
       const auto pose = numbers(node["pose"], "samples.pose", 3);
-      s.input.object.name = s.input.experiment.object;
-      s.input.object.x = pose[0];
-      s.input.object.y = pose[1];
-      s.input.object.yaw = pose[2];
       const auto features = numbers(node["features"], "samples.features", c.feature_names.size());
-      for (std::size_t i = 0; i < features.size(); ++i) s.input.object.extra[c.feature_names[i]] = features[i];
       const auto outcome = numbers(node["outcome"], "samples.outcome", 3);
-      s.outcome = {outcome[0], outcome[1], outcome[2]};
-      samples.push_back(std::move(s));
+      samples.push_back(pushSampleFrom(node["object"].as<std::string>(), node["side"].as<std::string>(),
+                                       node["offset"].as<double>(), node["distance"].as<double>(), pose, features,
+                                       c.feature_names, outcome));
     }
   } catch (const YAML::Exception& e) {
     badModel(std::string("YAML cannot read them (") + e.what() + ")");

@@ -526,21 +526,13 @@ void PushLearner::load(const std::string& bytes) {
       if (list.size() > kMaxSamples) badModel("there are more than " + std::to_string(kMaxSamples) + " samples");
       for (const auto& node : list) {
         if (!node.isMap()) badModel("a sample is not a map");
-        PushSample s;
-        s.input.experiment.object = unmarked(text(node["object"], "samples.object"), "samples.object");
-        s.input.experiment.side = unmarked(text(node["side"], "samples.side"), "samples.side");
-        s.input.experiment.offset = real(node["offset"], "samples.offset");
-        s.input.experiment.distance = real(node["distance"], "samples.distance");
         const auto pose = doubles(node["pose"], "samples.pose", 3);
-        s.input.object.name = s.input.experiment.object;
-        s.input.object.x = pose[0];
-        s.input.object.y = pose[1];
-        s.input.object.yaw = pose[2];
         const auto features = doubles(node["features"], "samples.features", c.feature_names.size());
-        for (std::size_t i = 0; i < features.size(); ++i) s.input.object.extra[c.feature_names[i]] = features[i];
         const auto outcome = doubles(node["outcome"], "samples.outcome", 3);
-        s.outcome = {outcome[0], outcome[1], outcome[2]};
-        samples.push_back(std::move(s));
+        samples.push_back(pushSampleFrom(unmarked(text(node["object"], "samples.object"), "samples.object"),
+                                         unmarked(text(node["side"], "samples.side"), "samples.side"),
+                                         real(node["offset"], "samples.offset"), real(node["distance"], "samples.distance"),
+                                         pose, features, c.feature_names, outcome));
       }
     }
     const cv::FileNode probes = root["fingerprint"];

@@ -188,4 +188,21 @@ std::vector<Notion> deriveNotions(const std::vector<PushSample>& samples) {
   return notions;
 }
 
+PushSample pushSampleFrom(const std::string& object, const std::string& side, double offset, double distance,
+                          const std::vector<double>& pose, const std::vector<double>& features,
+                          const std::vector<std::string>& feature_names, const std::vector<double>& outcome) {
+  PushSample s;
+  s.input.experiment.object = object;
+  s.input.experiment.side = side;
+  s.input.experiment.offset = offset;
+  s.input.experiment.distance = distance;
+  s.input.object.name = object;
+  s.input.object.x = pose[0];
+  s.input.object.y = pose[1];
+  s.input.object.yaw = pose[2];
+  for (std::size_t i = 0; i < features.size(); ++i) s.input.object.extra[feature_names[i]] = features[i];
+  s.outcome = {outcome[0], outcome[1], outcome[2]};
+  return s;
+}
+
 }  // namespace xpersif::core

@@ -13,6 +13,7 @@
 #include "xpersif/core/push_model.h"
 #include "xpersif/core/random_stream.h"
 #include "xpersif/ros/algorithm_loader.h"
+#include "search_spaces.h"
 
 using namespace xpersif;
 using namespace xpersif::core;
@@ -43,30 +44,6 @@ PushInput input(const std::string& object, double distance) {
   return in;
 }
 
-/// Three pick-and-place tasks for a one-handed robot (see test_plan_search.cpp): shortest plan 6 steps.
-SearchSpace handSpace(int n) {
-  SearchSpace s;
-  const int handempty = 3 * n;
-  s.initial.assign(3 * n + 1, false);
-  s.initial[handempty] = true;
-  for (int i = 0; i < n; ++i) {
-    s.initial[3 * i] = true;
-    s.goal.emplace_back(3 * i + 2, false);
-    s.actions.push_back({{3 * i, handempty}, {}, {3 * i + 1}, {3 * i, handempty}});
-    s.actions.push_back({{3 * i + 1}, {}, {3 * i + 2, handempty}, {3 * i + 1}});
-    s.actions.push_back({{3 * i + 1}, {}, {3 * i, handempty}, {3 * i + 1}});
-  }
-  return s;
-}
-
-bool valid(const SearchSpace& s, const std::vector<std::size_t>& plan) {
-  std::vector<bool> state = s.initial;
-  for (std::size_t a : plan) {
-    if (a >= s.actions.size() || !s.applicable(s.actions[a], state)) return false;
-    state = s.apply(s.actions[a], state);
-  }
-  return s.satisfied(state);
-}
 
 }  // namespace
 
@@ -111,13 +88,13 @@ TEST(AlgorithmPlugins, AnotherPackagesSearchLoadsByNameWithoutChangesHere) {
   for (const std::string name : {"breadth_first", "greedy", "xpersif_example_plugins/iterative_deepening"}) {
     ASSERT_TRUE(contains(declared, name)) << name << " not in " << joinWithCommas(declared);
   }
-  const SearchSpace space = handSpace(3);
+  const SearchSpace space = core::testing_spaces::handSpace(3);
   const SearchResult shortest = loader.create("~search_type", "breadth_first")->search(space);
   auto other = loader.create("~search_type", "xpersif_example_plugins/iterative_deepening");
   EXPECT_NE(other->description().find("iterative-deepening"), std::string::npos);
   const SearchResult found = other->search(space);
   ASSERT_EQ(found.outcome, SearchResult::Outcome::Found);
-  EXPECT_TRUE(valid(space, found.plan));
+  EXPECT_EQ(core::testing_spaces::check(space, found.plan), "");
   EXPECT_EQ(found.plan.size(), shortest.plan.size());  // it promises shortest plans too
 }
 

@@ -5,39 +5,13 @@
 
 #include "xpersif/core/plan_search.h"
 #include "xpersif/core/planner.h"
+#include "search_spaces.h"
 
 using namespace xpersif::core;
+using testing_spaces::check;
+using testing_spaces::handSpace;
 
 namespace {
-
-/// A one-handed robot moves n objects, each from the table to its own place: facts per object i are
-/// on_table(i) = 3i, holding(i) = 3i + 1, at(i) = 3i + 2, and handempty = 3n. Goal: every at(i). A shortest
-/// plan has 2n steps; breadth-first explores every interleaving, a goal count leads straight on.
-SearchSpace handSpace(int n) {
-  SearchSpace s;
-  const int handempty = 3 * n;
-  s.initial.assign(3 * n + 1, false);
-  s.initial[handempty] = true;
-  for (int i = 0; i < n; ++i) {
-    s.initial[3 * i] = true;
-    s.goal.emplace_back(3 * i + 2, false);
-    s.actions.push_back({{3 * i, handempty}, {}, {3 * i + 1}, {3 * i, handempty}});  // pick(i)
-    s.actions.push_back({{3 * i + 1}, {}, {3 * i + 2, handempty}, {3 * i + 1}});     // place(i)
-    s.actions.push_back({{3 * i + 1}, {}, {3 * i, handempty}, {3 * i + 1}});         // put back(i)
-  }
-  return s;
-}
-
-/// "" when @p plan is applicable step by step and reaches the goal, else what is wrong.
-std::string check(const SearchSpace& s, const std::vector<std::size_t>& plan) {
-  std::vector<bool> state = s.initial;
-  for (std::size_t k = 0; k < plan.size(); ++k) {
-    if (plan[k] >= s.actions.size()) return "step " + std::to_string(k) + " names no action";
-    if (!s.applicable(s.actions[plan[k]], state)) return "step " + std::to_string(k) + " is not applicable";
-    state = s.apply(s.actions[plan[k]], state);
-  }
-  return s.satisfied(state) ? "" : "the goal does not hold at the end";
-}
 
 std::vector<std::unique_ptr<PlanSearch>> searches() {
   std::vector<std::unique_ptr<PlanSearch>> all;

@@ -39,6 +39,13 @@ struct PushSample {
   Outcome outcome;
 };
 
+/// A sample from the fields a saved model stores (both learners' files): the push, the object's pose
+/// (x, y, yaw), its features in the order of @p feature_names, and the outcome (dx, dy, dyaw). The callers
+/// have checked the sizes.
+PushSample pushSampleFrom(const std::string& object, const std::string& side, double offset, double distance,
+                          const std::vector<double>& pose, const std::vector<double>& features,
+                          const std::vector<std::string>& feature_names, const std::vector<double>& outcome);
+
 /// What every push model is told: its inputs and its prior. Learner-specific settings go in `options`.
 struct PushModelConfig {
   /// Extra features of the object used as inputs; every sample must carry them.
