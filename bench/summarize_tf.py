@@ -96,19 +96,20 @@ def main(out):
     sizes = sorted({n for (p, n, c) in runs if c != 15 or True} - set())
     size_clients = sorted({c for (p, n, c) in runs if n != 15})
     sc = size_clients[0] if size_clients else 10
-    sizes = sorted({n for (p, n, c) in runs if c == sc})
-    lines += ["### Scene size: %d clients, transforms per frame = dynamic nodes" % sc, "",
-              "| nodes | raw mean | raw p99 | raw lat. rel. p50 / p99 | raw lost | raw rate Hz | raw CPU % "
-              "| xpersim mean | xpersim p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz | xpersim CPU % |",
-              "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for n in sizes:
-        r = agg(*runs[("raw", n, sc)]) if ("raw", n, sc) in runs else None
-        x = agg(*runs[("xpersim", n, sc)]) if ("xpersim", n, sc) in runs else None
-        lines.append("| %d | %s | %s | %s / %s | %s | %s | %s | %s | %s | %s / %s | %s | %s | %s |" % (
-            n, cell(r, "inter_mean", 3), cell(r, "inter_p99"), cell(r, "rel_p50"), cell(r, "rel_p99"), lost(r),
-            cell(r, "rate", 0), "–" if r is None else r["cpu"], cell(x, "inter_mean", 3), cell(x, "inter_p99"),
-            cell(x, "rel_p50"), cell(x, "rel_p99"), lost(x), cell(x, "rate", 0), "–" if x is None else x["cpu"]))
-    lines.append("")
+    sizes = sorted({n for (p, n, c) in runs if c == sc}) if size_clients else []
+    if sizes:
+      lines += ["### Scene size: %d clients, transforms per frame = dynamic nodes" % sc, "",
+                "| nodes | raw mean | raw p99 | raw lat. rel. p50 / p99 | raw lost | raw rate Hz | raw CPU % "
+                "| xpersim mean | xpersim p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz | xpersim CPU % |",
+                "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+      for n in sizes:
+          r = agg(*runs[("raw", n, sc)]) if ("raw", n, sc) in runs else None
+          x = agg(*runs[("xpersim", n, sc)]) if ("xpersim", n, sc) in runs else None
+          lines.append("| %d | %s | %s | %s / %s | %s | %s | %s | %s | %s | %s / %s | %s | %s | %s |" % (
+              n, cell(r, "inter_mean", 3), cell(r, "inter_p99"), cell(r, "rel_p50"), cell(r, "rel_p99"), lost(r),
+              cell(r, "rate", 0), "–" if r is None else r["cpu"], cell(x, "inter_mean", 3), cell(x, "inter_p99"),
+              cell(x, "rel_p50"), cell(x, "rel_p99"), lost(x), cell(x, "rate", 0), "–" if x is None else x["cpu"]))
+      lines.append("")
 
     lines += ["### Every run", "",
               "| run | client reports | rate Hz | inter mean / p99 / max ms | lat. rel. p50 / p99 ms | lat. abs. p50 / p99 ms "
