@@ -24,6 +24,17 @@ done
 [[ -f "$repo/build/devel/setup.bash" ]] || fail "$repo/build is not built: bash scripts/setup.sh"
 
 tag="xph$$"                       # namespace names unique to this run
+
+# Leftovers of an earlier run that was killed outright (SIGKILL, e.g. a ctest timeout: no trap runs): namespaces
+# named after a process that no longer exists, with whatever still runs in them.
+for ns in $(ip netns list | awk '/^xph[0-9]+(lan|sim|loop|view)( |$)/ { print $1 }'); do
+  owner=${ns#xph}
+  owner=${owner%%[a-z]*}
+  kill -0 "$owner" 2>/dev/null && continue
+  pids=$(ip netns pids "$ns" 2>/dev/null || true)
+  [[ -z "$pids" ]] || kill -KILL $pids 2>/dev/null || true
+  ip netns del "$ns" && echo "multi_host: removed $ns, left by an earlier run (process $owner is gone)"
+done
 declare -A addr=([sim]=10.213.7.1 [loop]=10.213.7.2 [view]=10.213.7.3)
 hosts=(sim loop view)
 tmp=$(mktemp -d /tmp/xpersif_multi_host.XXXXXX)
@@ -119,9 +130,11 @@ ip netns exec "${tag}loop" "${clean_env[@]}" bash -c "source '$repo/scripts/env.
 launch_pid=$!
 
 # --- the checks -------------------------------------------------------------------------------------------
+# In the background and waited for, so that a signal to this script runs its trap at once.
 ip netns exec "${tag}loop" "${clean_env[@]}" bash -c "source '$repo/scripts/env.sh' && exec /usr/bin/python3 \
     '$repo/test/multi_host_check.py' --sim-netns '${tag}sim' --view-netns '${tag}view' \
-    --view-dir '$tmp/view' --experiments 4" || {
+    --view-dir '$tmp/view' --experiments 4" &
+wait $! || {
   echo "--- launch.log (last 60 lines)"; tail -60 "$tmp/launch.log"
   fail "the run across hosts failed (above)"
 }
