@@ -15,13 +15,23 @@ if [[ -f "$_xpersif_repo/build/devel/setup.bash" ]]; then
   # shellcheck disable=SC1091
   source "$_xpersif_repo/build/devel/setup.bash"
   _xpersif_bin="$_xpersif_repo/build/devel/lib/xpersif"
-elif [[ -f "$_xpersif_repo/../../setup.bash" ]]; then   # installed: <prefix>/share/xpersif/scripts/env.sh
-  # shellcheck disable=SC1091
-  source "$_xpersif_repo/../../setup.bash"
-  _xpersif_bin="$(cd "$_xpersif_repo/../../lib/xpersif" && pwd)"
+elif [[ -f "$_xpersif_repo/package.xml" && -d "$_xpersif_repo/../../lib/xpersif" ]]; then
+  # Installed (cmake --install): <prefix>/share/xpersif/scripts/env.sh. A workspace's install has a setup.bash
+  # at <prefix>; the package installed alone has none, so the paths are set here.
+  _xpersif_prefix=$(cd "$_xpersif_repo/../.." && pwd)
+  if [[ -f "$_xpersif_prefix/setup.bash" ]]; then
+    # shellcheck disable=SC1091
+    source "$_xpersif_prefix/setup.bash"
+  else
+    export CMAKE_PREFIX_PATH="$_xpersif_prefix${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}"
+    export ROS_PACKAGE_PATH="$_xpersif_prefix/share${ROS_PACKAGE_PATH:+:$ROS_PACKAGE_PATH}"
+    export LD_LIBRARY_PATH="$_xpersif_prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    export PYTHONPATH="$_xpersif_prefix/lib/python3/dist-packages${PYTHONPATH:+:$PYTHONPATH}"
+  fi
+  _xpersif_bin="$_xpersif_prefix/lib/xpersif"
 else
   echo "scripts/env.sh: neither $_xpersif_repo/build/devel/setup.bash (a built checkout: run scripts/setup.sh)" \
-       "nor an installed prefix's setup.bash found" >&2
+       "nor an installed package around $_xpersif_repo" >&2
   return 1 2>/dev/null || exit 1
 fi
 [[ -n "${ROS_IP:-}" || -n "${ROS_HOSTNAME:-}" ]] || export ROS_IP=127.0.0.1
