@@ -58,7 +58,8 @@ cleanup() {
     [[ -n "$pids" ]] && kill -KILL $pids 2>/dev/null
     ip netns del "$ns"
   done
-  rm -rf "$keep" && mkdir -p "$keep" && cp -r "$tmp"/*.log "$tmp"/view "$tmp"/ros_home_* "$keep"/ 2>/dev/null
+  rm -rf "$keep" && mkdir -p "$keep" && cp -r "$tmp"/*.log "$tmp"/*.status "$tmp"/view "$tmp"/ros_home_* "$keep"/ 2>/dev/null
+  [[ -f "$tmp/experiment/launch.log" ]] && cp "$tmp/experiment/launch.log" "$keep/experiment_launch.log"
   rm -rf "$tmp"
   left=$(ip netns list | grep -c "^$tag" || true)
   [[ "$left" == 0 ]] || echo "multi_host: $left namespaces of this test are still there" >&2
@@ -159,4 +160,26 @@ frames=$(($(wc -l <"$csv") - 1))
 ((frames >= 50)) || fail "telesim_view on view received only $frames tf frames"
 ls "$tmp"/view/*_last.png >/dev/null 2>&1 || fail "telesim_view on view rendered no image"
 echo "multi_host: tf reached the viewer on view: $frames inter-frame intervals, images in $keep/view"
+
+# --- an experiment file across the same hosts (experiment.launch hosts:=, as run.sh --hosts passes it) --------
+experiment() {  # experiment HOSTS RUN_DIR -> roslaunch's output in RUN_DIR.log, the outcome in RUN_DIR.status
+  ip netns exec "${tag}loop" "${clean_env[@]}" bash -c "source '$repo/scripts/env.sh' && exec roslaunch -p 11311 \
+      xpersif experiment.launch experiment:='$repo/experiments/short.yaml' run_dir:='$2' status_file:='$2.status' \
+      hosts:='$1'" >"$2.log" 2>&1 &
+  launch_pid=$!
+  wait "$launch_pid" || true
+  launch_pid=""
+}
+experiment "sim_host=${addr[sim]} world=/elsewhere.yaml" "$tmp/refused"
+read -r code sentence <"$tmp/refused.status" || fail "experiment.launch wrote no outcome for a bad hosts:= ($tmp/refused.log)"
+[[ "$code" == 2 && "$sentence" == *"'world=/elsewhere.yaml' is not NAME=VALUE"* ]] ||
+  fail "experiment.launch with hosts:='... world=...' ended '$code $sentence', not refused (2)"
+echo "multi_host: experiment.launch refuses a hosts:= argument that is not a host's: $sentence"
+experiment "sim_host=${addr[sim]} loop_host=${addr[loop]}" "$tmp/experiment"
+read -r code sentence <"$tmp/experiment.status" || fail "experiment.launch across hosts wrote no outcome ($tmp/experiment.log)"
+[[ "$code" == 0 ]] || { tail -30 "$tmp/experiment/launch.log"; fail "experiments/short.yaml across hosts: $code $sentence"; }
+grep -qF "[${addr[sim]}-0]: process[xpersif/sim_manager-1]: started" "$tmp/experiment/launch.log" ||
+  fail "the experiment's sim_manager did not start on ${addr[sim]} (see $tmp/experiment/launch.log)"
+[[ -f "$tmp/experiment/report.md" ]] || fail "experiments/short.yaml across hosts wrote no report"
+echo "multi_host: experiments/short.yaml across hosts: $sentence"
 echo "multi_host: PASS"
