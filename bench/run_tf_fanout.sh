@@ -51,8 +51,8 @@ if [ "$HOSTS" = 1 ]; then
   ip -n "$NETNS_PUB" addr add 10.213.9.1/24 dev eth0
   ip -n "$NETNS_CLI" addr add 10.213.9.2/24 dev eth0
   for ns in "$NETNS_PUB" "$NETNS_CLI"; do ip -n "$ns" link set eth0 up; ip -n "$ns" link set lo up; done
-  PUB=(ip netns exec "$NETNS_PUB" env ROS_IP=10.213.9.1 ROS_HOSTNAME=10.213.9.1)
-  CLI=(ip netns exec "$NETNS_CLI" env ROS_IP=10.213.9.2 ROS_HOSTNAME=10.213.9.2)
+  PUB=(ip netns exec "$NETNS_PUB" env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS ROS_IP=10.213.9.1 ROS_HOSTNAME=10.213.9.1)
+  CLI=(ip netns exec "$NETNS_CLI" env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS ROS_IP=10.213.9.2 ROS_HOSTNAME=10.213.9.2)
   export ROS_MASTER_URI=http://10.213.9.1:$PORT
 fi
 BIN=$BUILD/devel/lib/xpersif

@@ -38,7 +38,9 @@ fi
 _xpersif_address=${ROS_HOSTNAME:-$ROS_IP}
 # ROS scripts start with "#!/usr/bin/env python3"; they need the python that has ROS modules.
 export PATH="/usr/bin:$PATH"
-if [[ -z "${XPERSIF_BIND_ADDRESS+x}" ]]; then
+# Derived unless the caller chose it: a value this file derived earlier (XPERSIF_BIND_ADDRESS_DERIVED) follows a
+# ROS_IP changed since.
+if [[ -z "${XPERSIF_BIND_ADDRESS+x}" || "$XPERSIF_BIND_ADDRESS" == "${XPERSIF_BIND_ADDRESS_DERIVED:-}" ]]; then
   if [[ -n "${ROS_IP:-}" && -z "${ROS_HOSTNAME:-}" ]]; then
     XPERSIF_BIND_ADDRESS=$ROS_IP
   else
@@ -49,13 +51,14 @@ if [[ -z "${XPERSIF_BIND_ADDRESS+x}" ]]; then
       XPERSIF_BIND_ADDRESS=any
     fi
   fi
+  export XPERSIF_BIND_ADDRESS_DERIVED=$XPERSIF_BIND_ADDRESS
 fi
 export XPERSIF_BIND_ADDRESS
 if [[ "$XPERSIF_BIND_ADDRESS" != any ]]; then
   _xpersif_preload=""
-  for _xpersif_prefix in ${CMAKE_PREFIX_PATH//:/ }; do
-    if [[ -f "$_xpersif_prefix/lib/libxpersif_bind_address.so" ]]; then
-      _xpersif_preload="$_xpersif_prefix/lib/libxpersif_bind_address.so"
+  for _xpersif_dir in ${CMAKE_PREFIX_PATH//:/ }; do
+    if [[ -f "$_xpersif_dir/lib/libxpersif_bind_address.so" ]]; then
+      _xpersif_preload="$_xpersif_dir/lib/libxpersif_bind_address.so"
       break
     fi
   done

@@ -24,7 +24,7 @@ s.bind((sys.argv[2], 0))
 s.listen(1)
 print(s.getsockname()[0])
 EOF
-clean=(env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS -u ROS_IP -u ROS_HOSTNAME -u ROS_MASTER_URI)
+clean=(env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS -u XPERSIF_BIND_ADDRESS_DERIVED -u ROS_IP -u ROS_HOSTNAME -u ROS_MASTER_URI)
 
 check "IPv4 wildcard, no library" 0.0.0.0 "$("${clean[@]}" /usr/bin/python3 "$probe" 4 0.0.0.0)"
 check "IPv4 wildcard" 127.0.0.2 "$("${clean[@]}" LD_PRELOAD="$lib" XPERSIF_BIND_ADDRESS=127.0.0.2 /usr/bin/python3 "$probe" 4 0.0.0.0)"
@@ -51,6 +51,10 @@ check "env.sh with ROS_IP" "127.0.0.7 http://127.0.0.7:" "$("${clean[@]}" ROS_IP
   echo \$XPERSIF_BIND_ADDRESS \${ROS_MASTER_URI%:*}:")"
 check "env.sh with ROS_HOSTNAME" 127.0.0.1 "$("${clean[@]}" ROS_HOSTNAME=localhost bash -c "source '$repo/scripts/env.sh';
   echo \$XPERSIF_BIND_ADDRESS")"
+check "env.sh again after ROS_IP changed" "127.0.0.8" "$("${clean[@]}" bash -c "source '$repo/scripts/env.sh';
+  export ROS_IP=127.0.0.8; source '$repo/scripts/env.sh'; echo \$XPERSIF_BIND_ADDRESS")"
+check "env.sh keeps a chosen XPERSIF_BIND_ADDRESS" "127.0.0.6" "$("${clean[@]}" XPERSIF_BIND_ADDRESS=127.0.0.6 bash -c \
+  "source '$repo/scripts/env.sh'; export ROS_IP=127.0.0.8; source '$repo/scripts/env.sh'; echo \$XPERSIF_BIND_ADDRESS")"
 check "env.sh with XPERSIF_BIND_ADDRESS=any" "any 0" "$("${clean[@]}" XPERSIF_BIND_ADDRESS=any bash -c "source '$repo/scripts/env.sh';
   echo \$XPERSIF_BIND_ADDRESS \$(tr : '\n' <<<\"\${LD_PRELOAD:-}\" | grep -c libxpersif_bind_address)")"
 

@@ -115,7 +115,7 @@ done
 
 # --- one roslaunch on loop -------------------------------------------------------------------------------
 # A clean ROS environment: nothing of the caller's master, address or preload (test.sh sources env.sh).
-clean_env=(env -u SSH_AUTH_SOCK -u ROS_MASTER_URI -u ROS_IP -u ROS_HOSTNAME -u XPERSIF_BIND_ADDRESS -u LD_PRELOAD
+clean_env=(env -u SSH_AUTH_SOCK -u ROS_MASTER_URI -u ROS_IP -u ROS_HOSTNAME -u XPERSIF_BIND_ADDRESS -u XPERSIF_BIND_ADDRESS_DERIVED -u LD_PRELOAD
            -u XPERSIF_NEW_MASTER HOME="$tmp/home" ROS_HOME="$tmp/ros_home_loop" ROS_IP="${addr[loop]}"
            ROS_MASTER_URI="http://${addr[loop]}:11311")
 mkdir -p "$tmp/ros_home_loop" "$tmp/view" "$tmp/run"
