@@ -3,7 +3,10 @@
 #
 #   bash bench/run_tf_fanout.sh [build_dir=/tmp/bench-build] [out_dir=bench/results/tf_fanout-<date>]
 #   env: PORT (master port, default 11411), DURATION (s per run, default 5), CLIENTS ("1 3 5 10 50 100"),
-#        SIZES ("7 15 100 1000"), SIZE_CLIENTS (10)
+#        SIZES ("7 15 100 1000"), SIZE_CLIENTS (10),
+#        HOSTS=1: across hosts (as root): roscore and the publisher in one network namespace (10.213.9.1), the
+#        clients in another (10.213.9.2), joined by a veth pair; created here and removed on exit. Defaults
+#        then CLIENTS="1 10 50 100", SIZES="" (bench/README.md, "Across hosts").
 #
 # Part 1: clients in CLIENTS, 15 transforms per frame, for the raw roscpp publisher and for xpersim
 #         (realtime, tf_rate 1000, 1 ms physics step, world table1_n15.yaml: 15 dynamic nodes).
@@ -17,8 +20,14 @@ BUILD=${1:-/tmp/bench-build}
 OUT=${2:-$HERE/results/tf_fanout-$(date +%Y%m%d-%H%M%S)}
 PORT=${PORT:-11411}
 DURATION=${DURATION:-5}
-CLIENTS=${CLIENTS-"1 3 5 10 50 100"}
-SIZES=${SIZES-"7 15 100 1000"}
+HOSTS=${HOSTS:-0}
+if [ "$HOSTS" = 1 ]; then
+  CLIENTS=${CLIENTS-"1 10 50 100"}
+  SIZES=${SIZES-""}
+else
+  CLIENTS=${CLIENTS-"1 3 5 10 50 100"}
+  SIZES=${SIZES-"7 15 100 1000"}
+fi
 SIZE_CLIENTS=${SIZE_CLIENTS:-10}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
@@ -29,6 +38,23 @@ set +u
 source "$BUILD/devel/setup.bash"
 set -u
 export ROS_IP=127.0.0.1 ROS_HOSTNAME=127.0.0.1 ROS_MASTER_URI=http://127.0.0.1:$PORT ROS_LOG_DIR=$OUT/ros_log
+# Where the publisher side (roscore, publisher) and the clients run: here, or in two network namespaces.
+PUB=()
+CLI=()
+NETNS_PUB="" NETNS_CLI=""
+if [ "$HOSTS" = 1 ]; then
+  [ "$(id -u)" = 0 ] || { echo "HOSTS=1 needs root (ip netns)" >&2; exit 1; }
+  NETNS_PUB="xpfo$$pub" NETNS_CLI="xpfo$$cli"
+  ip netns add "$NETNS_PUB"
+  ip netns add "$NETNS_CLI"
+  ip -n "$NETNS_PUB" link add eth0 type veth peer name eth0 netns "$NETNS_CLI"
+  ip -n "$NETNS_PUB" addr add 10.213.9.1/24 dev eth0
+  ip -n "$NETNS_CLI" addr add 10.213.9.2/24 dev eth0
+  for ns in "$NETNS_PUB" "$NETNS_CLI"; do ip -n "$ns" link set eth0 up; ip -n "$ns" link set lo up; done
+  PUB=(ip netns exec "$NETNS_PUB" env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS ROS_IP=10.213.9.1 ROS_HOSTNAME=10.213.9.1)
+  CLI=(ip netns exec "$NETNS_CLI" env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS ROS_IP=10.213.9.2 ROS_HOSTNAME=10.213.9.2)
+  export ROS_MASTER_URI=http://10.213.9.1:$PORT
+fi
 BIN=$BUILD/devel/lib/xpersif
 for b in tf_raw_publisher tf_client xpersim_node; do
   [ -x "$BIN/$b" ] || { echo "missing $BIN/$b: cmake --build $BUILD --target bench" >&2; exit 1; }
@@ -45,16 +71,21 @@ cleanup() {
     for _ in $(seq 50); do kill -0 "$ROSCORE_PID" 2>/dev/null || break; sleep 0.1; done
     kill -KILL "$ROSCORE_PID" 2>/dev/null || true
   fi
+  for ns in $NETNS_PUB $NETNS_CLI; do
+    pids=$(ip netns pids "$ns" 2>/dev/null || true)
+    [ -z "$pids" ] || kill -KILL $pids 2>/dev/null || true
+    ip netns del "$ns" 2>/dev/null || true
+  done
 }
 trap cleanup EXIT
 
-if curl -s -m 1 "http://127.0.0.1:$PORT" >/dev/null 2>&1 || (exec 3<>/dev/tcp/127.0.0.1/$PORT) 2>/dev/null; then
+if [ "$HOSTS" != 1 ] && { curl -s -m 1 "http://127.0.0.1:$PORT" >/dev/null 2>&1 || (exec 3<>/dev/tcp/127.0.0.1/$PORT) 2>/dev/null; }; then
   echo "port $PORT is in use; set PORT" >&2; exit 1
 fi
-roscore -p "$PORT" >"$OUT/roscore.log" 2>&1 &
+"${PUB[@]}" roscore -p "$PORT" >"$OUT/roscore.log" 2>&1 &
 ROSCORE_PID=$!
-for _ in $(seq 100); do rosparam get /rosdistro >/dev/null 2>&1 && break; sleep 0.2; done
-rosparam get /rosdistro >/dev/null || { echo "roscore did not come up" >&2; exit 1; }
+for _ in $(seq 100); do "${CLI[@]}" rosparam get /rosdistro >/dev/null 2>&1 && break; sleep 0.2; done
+"${CLI[@]}" rosparam get /rosdistro >/dev/null || { echo "roscore did not come up (or the clients' side cannot reach it)" >&2; exit 1; }
 
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat" 2>/dev/null || echo 0; }
 
@@ -65,14 +96,14 @@ run() {
   mkdir -p "$dir"
   local mode period world="" ppid
   if [ "$pub" = raw ]; then
-    "$BIN/tf_raw_publisher" _n:="$n" _rate:=1000 __name:=tf_raw_publisher >"$dir/publisher.log" 2>&1 &
+    "${PUB[@]}" "$BIN/tf_raw_publisher" _n:="$n" _rate:=1000 __name:=tf_raw_publisher >"$dir/publisher.log" 2>&1 &
     ppid=$!
     mode=seq; period=0.001
     sleep 1
   else
     world=$HERE/worlds/table1_n$n.yaml
     [ "$n" = 7 ] && world=$HERE/worlds/table1.yaml
-    "$BIN/xpersim_node" _world:="$world" _clock_mode:=realtime _tf_rate:=1000 _autostart:=true __name:=xpersim \
+    "${PUB[@]}" "$BIN/xpersim_node" _world:="$world" _clock_mode:=realtime _tf_rate:=1000 _autostart:=true __name:=xpersim \
       >"$dir/publisher.log" 2>&1 &
     ppid=$!
     mode=stamp; period=0.001
@@ -85,7 +116,7 @@ run() {
   start=$(awk -v m="$margin" -v now="$(date +%s.%N)" 'BEGIN{printf "%.3f", now + m}')
   local cpids=()
   for i in $(seq "$clients"); do
-    "$BIN/tf_client" _mode:=$mode _period:=$period _duration:="$DURATION" _start_wall:="$start" _label:="$tag" \
+    "${CLI[@]}" "$BIN/tf_client" _mode:=$mode _period:=$period _duration:="$DURATION" _start_wall:="$start" _label:="$tag" \
       _timeout:=$(awk -v m="$margin" -v d="$DURATION" 'BEGIN{print m + d + 20}') \
       >"$dir/client_$i.json" 2>"$dir/client_$i.err" &
     cpids+=($!)
@@ -120,6 +151,7 @@ run() {
   echo "date: $(date -Is)"
   echo "host: $(uname -srm), nproc $(nproc), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
   echo "uptime at start: $(uptime)"
+  [ "$HOSTS" = 1 ] && echo "hosts: roscore and publisher in netns $NETNS_PUB (10.213.9.1), clients in $NETNS_CLI (10.213.9.2), veth"
   echo "git: $(git -C "$HERE" rev-parse --short HEAD) $(git -C "$HERE" status --porcelain | grep -q . && echo '(with local changes)')"
 } | tee "$OUT/machine.txt"
 

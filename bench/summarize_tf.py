@@ -38,6 +38,7 @@ def agg(meta, clients):
     return {
         "reports": "%d/%d" % (len(ok), meta["clients"]),
         "inter_mean": statistics.mean(f("inter_mean_ms")),
+        "inter_p50": statistics.median(f("inter_p50_ms")),
         "inter_p99": max(f("inter_p99_ms")),
         "inter_max": max(f("inter_max_ms")),
         "rel_p50": statistics.median(f("lat_rel_p50_ms")),
@@ -76,37 +77,39 @@ def main(out):
     clients = sorted({c for (p, n, c) in runs if n == 15})
     lines += ["### Fan-out: 15 transforms per frame, 1 kHz, N client processes", "",
               "Inter-frame: wall-clock time between two received frames at a client (mean: mean over clients; "
-              "p99: worst client). Latency rel.: receipt − stamp − min over the run (p50: median client; p99: worst "
+              "p50: median client; p99: worst client). Latency rel.: receipt − stamp − min over the run (p50: median client; p99: worst "
               "client). Lost: frames missing in the sequence / frames expected, summed over clients.", "",
-              "| clients | paper mean | raw mean | raw p99 | raw lat. rel. p50 / p99 | raw lat. abs. p50 / p99 | raw lost "
-              "| xpersim mean | xpersim p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz |",
+              "| clients | paper mean | raw mean | raw p50 / p99 | raw lat. rel. p50 / p99 | raw lat. abs. p50 / p99 | raw lost "
+              "| xpersim mean | xpersim p50 / p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz |",
               "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for c in clients:
         r = agg(*runs[("raw", 15, c)]) if ("raw", 15, c) in runs else None
         x = agg(*runs[("xpersim", 15, c)]) if ("xpersim", 15, c) in runs else None
-        lines.append("| %d | %s | %s | %s | %s / %s | %s / %s | %s | %s | %s | %s / %s | %s | %s |" % (
-            c, fmt(PAPER.get(c), 1) if c in PAPER else "–", cell(r, "inter_mean", 3), cell(r, "inter_p99"),
-            cell(r, "rel_p50"), cell(r, "rel_p99"), cell(r, "abs_p50"), cell(r, "abs_p99"), lost(r),
-            cell(x, "inter_mean", 3), cell(x, "inter_p99"), cell(x, "rel_p50"), cell(x, "rel_p99"), lost(x),
+        lines.append("| %d | %s | %s | %s / %s | %s / %s | %s / %s | %s | %s | %s / %s | %s / %s | %s | %s |" % (
+            c, fmt(PAPER.get(c), 1) if c in PAPER else "–", cell(r, "inter_mean", 3), cell(r, "inter_p50"),
+            cell(r, "inter_p99"), cell(r, "rel_p50"), cell(r, "rel_p99"), cell(r, "abs_p50"), cell(r, "abs_p99"),
+            lost(r), cell(x, "inter_mean", 3), cell(x, "inter_p50"), cell(x, "inter_p99"), cell(x, "rel_p50"),
+            cell(x, "rel_p99"), lost(x),
             cell(x, "rate", 0)))
     lines.append("")
 
     sizes = sorted({n for (p, n, c) in runs if c != 15 or True} - set())
     size_clients = sorted({c for (p, n, c) in runs if n != 15})
     sc = size_clients[0] if size_clients else 10
-    sizes = sorted({n for (p, n, c) in runs if c == sc})
-    lines += ["### Scene size: %d clients, transforms per frame = dynamic nodes" % sc, "",
-              "| nodes | raw mean | raw p99 | raw lat. rel. p50 / p99 | raw lost | raw rate Hz | raw CPU % "
-              "| xpersim mean | xpersim p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz | xpersim CPU % |",
-              "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for n in sizes:
-        r = agg(*runs[("raw", n, sc)]) if ("raw", n, sc) in runs else None
-        x = agg(*runs[("xpersim", n, sc)]) if ("xpersim", n, sc) in runs else None
-        lines.append("| %d | %s | %s | %s / %s | %s | %s | %s | %s | %s | %s / %s | %s | %s | %s |" % (
-            n, cell(r, "inter_mean", 3), cell(r, "inter_p99"), cell(r, "rel_p50"), cell(r, "rel_p99"), lost(r),
-            cell(r, "rate", 0), "–" if r is None else r["cpu"], cell(x, "inter_mean", 3), cell(x, "inter_p99"),
-            cell(x, "rel_p50"), cell(x, "rel_p99"), lost(x), cell(x, "rate", 0), "–" if x is None else x["cpu"]))
-    lines.append("")
+    sizes = sorted({n for (p, n, c) in runs if c == sc}) if size_clients else []
+    if sizes:
+      lines += ["### Scene size: %d clients, transforms per frame = dynamic nodes" % sc, "",
+                "| nodes | raw mean | raw p99 | raw lat. rel. p50 / p99 | raw lost | raw rate Hz | raw CPU % "
+                "| xpersim mean | xpersim p99 | xpersim lat. rel. p50 / p99 | xpersim lost | xpersim rate Hz | xpersim CPU % |",
+                "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+      for n in sizes:
+          r = agg(*runs[("raw", n, sc)]) if ("raw", n, sc) in runs else None
+          x = agg(*runs[("xpersim", n, sc)]) if ("xpersim", n, sc) in runs else None
+          lines.append("| %d | %s | %s | %s / %s | %s | %s | %s | %s | %s | %s / %s | %s | %s | %s |" % (
+              n, cell(r, "inter_mean", 3), cell(r, "inter_p99"), cell(r, "rel_p50"), cell(r, "rel_p99"), lost(r),
+              cell(r, "rate", 0), "–" if r is None else r["cpu"], cell(x, "inter_mean", 3), cell(x, "inter_p99"),
+              cell(x, "rel_p50"), cell(x, "rel_p99"), lost(x), cell(x, "rate", 0), "–" if x is None else x["cpu"]))
+      lines.append("")
 
     lines += ["### Every run", "",
               "| run | client reports | rate Hz | inter mean / p99 / max ms | lat. rel. p50 / p99 ms | lat. abs. p50 / p99 ms "

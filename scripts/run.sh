@@ -11,16 +11,19 @@
 #     --set KEY=VALUE  override a key of the file: --set seed=3, --set phases.1.experiments=8,
 #                      --set recording.mode=bags, --set world=worlds/mixed.yaml (relative to FILE's directory)
 #     --run-dir DIR    instead of the file's run_dir (also: XPERSIF_RUN_DIR)
+#     --hosts 'ARGS'   where the parts run: xpersif.launch's host arguments as NAME=VALUE, e.g. 'sim_host=10.0.0.5
+#                      view_host=10.0.0.7' (README, "Several hosts"; set ROS_IP to this host's address first)
 # Everything goes to the run directory (runs/<time>/ by default): report.md, learning_curve.png/.csv,
 # knowledge.db, the experiment as run and its provenance, launch.log, ros_log/.
 # Exit status: 0 done, 1 a phase or the report failed, 2 a bad experiment file (nothing started).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}"
+experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}" hosts=""
 while (($#)); do
   case "$1" in
     --set) overrides+=("$2"); shift 2 ;;
     --run-dir) run_dir=$2; shift 2 ;;
+    --hosts) hosts=$2; shift 2 ;;
     -*) echo "run.sh: unknown option $1 (see the comment at the top of scripts/run.sh)" >&2; exit 2 ;;
     *) experiment=$1; shift ;;
   esac
@@ -37,7 +40,7 @@ trap 'rm -f "$status_file"' EXIT
 echo "run: master $ROS_MASTER_URI, experiment $experiment"
 roslaunch_code=0
 roslaunch -p "${ROS_MASTER_URI##*:}" xpersif experiment.launch experiment:="$experiment" run_dir:="$run_dir" \
-  overrides:="${overrides[*]:-}" status_file:="$status_file" || roslaunch_code=$?
+  overrides:="${overrides[*]:-}" status_file:="$status_file" hosts:="$hosts" || roslaunch_code=$?
 # roslaunch fails itself (exit 1) when the file is bad: the check's sentence is above.
 ((roslaunch_code == 0)) || exit 2
 [[ -s "$status_file" ]] || { echo "run: the experiment ended without an outcome" >&2; exit 1; }

@@ -250,9 +250,12 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
   Spending spending(wall_spent_, "scene");
   // The scene as it is now: VISION works behind the camera, so its latest vector may show an older world (in
   // lockstep the next idle tick brings a frame of the standing world).
-  const double newer_than = ros::Time::now().toSec();
+  double newer_than = ros::Time::now().toSec();
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
   while (ros::ok()) {
+    // Simulated time that went backwards means XPERSim was restarted (its manager died and was respawned): its
+    // clock began again, and the world standing now is the restarted one; a frame newer than that is the scene.
+    newer_than = std::min(newer_than, ros::Time::now().toSec());
     GetFeatures features;
     features.request.max_age = 2.0;
     *why = call(nodeHandle(), "vision/get_features", features);

@@ -35,6 +35,7 @@
 #include <iomanip>
 #include <iostream>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -223,6 +224,8 @@ class Runner {
     pnh_.param("components", components_, components_);
     pnh_.param("package_dir", package_dir_, package_dir_);
     pnh_.param("startup_timeout", startup_timeout_, startup_timeout_);
+    std::string hosts;
+    pnh_.param("hosts", hosts, hosts);
     // roslaunch starts nodes in ROS_HOME: relative paths are the launching shell's (~cwd).
     std::string cwd;
     pnh_.param("cwd", cwd, cwd);
@@ -235,6 +238,24 @@ class Runner {
       spec_ = load(file, split(overrides, ' '), split(components_, ','));
     } catch (const std::exception& e) {
       return finish(2, e.what());
+    }
+    // Where the system's parts run (README "Several hosts"): only xpersif.launch's host arguments, so that
+    // nothing here can change what the experiment file says.
+    static const std::set<std::string> kHostArguments = {
+        "sim_host", "loop_host", "view_host", "view_rviz", "view_telesim", "view_telesim_display",
+        "view_telesim_output_dir", "ssh_user", "ssh_port", "env_loader", "machine_timeout"};
+    for (const auto& argument : split(hosts, ' ')) {
+      if (argument.empty()) continue;
+      // NAME=VALUE (roslaunch drops a command-line argument with two ':='), passed on as NAME:=VALUE.
+      const auto assign = argument.find('=');
+      const std::string name = assign == std::string::npos ? "" : argument.substr(0, assign);
+      if (!kHostArguments.count(name)) {
+        std::string known;
+        for (const auto& k : kHostArguments) known += (known.empty() ? "" : ", ") + k;
+        return finish(2, "hosts: '" + argument + "' is not NAME=VALUE with NAME one of xpersif.launch's host "
+                         "arguments (" + known + ")");
+      }
+      host_arguments_.push_back(name + ":=" + argument.substr(assign + 1));
     }
     progress_.experiment = spec_.name;
     progress_.phases = static_cast<std::uint32_t>(spec_.phases.size());
@@ -305,11 +326,12 @@ class Runner {
   pid_t startSystem() {
     const std::string record = spec_.recording.mode == "off" ? "false" : "true";
     const std::string images = spec_.recording.mode == "bags_with_images" ? "true" : "false";
-    const std::vector<std::string> argv = {
+    std::vector<std::string> argv = {
         "roslaunch", "xpersif", "xpersif.launch", "world:=" + world_copy_,
         "database:=" + run_dir_ + "/knowledge.db", "seed:=" + std::to_string(spec_.seed), "run_dir:=" + run_dir_,
         "clock_mode:=" + spec_.clock, "record:=" + record, "record_images:=" + images,
         "record_compression:=" + spec_.recording.compression, "parameters:=" + parameters_file_};
+    argv.insert(argv.end(), host_arguments_.begin(), host_arguments_.end());
     return spawn(argv, run_dir_ + "/launch.log", {"ROS_LOG_DIR=" + run_dir_ + "/ros_log"});
   }
 
@@ -458,6 +480,7 @@ class Runner {
   ExperimentSpec spec_;
   std::string status_file_, components_, package_dir_, run_dir_, world_copy_, parameters_file_, as_run_json_,
       code_version_, last_goal_text_;
+  std::vector<std::string> host_arguments_;  // xpersif.launch sim_host:=... (~hosts)
   double startup_timeout_ = 180.0;
   pid_t launch_ = -1;
   bool owns_run_dir_ = false;
