@@ -15,22 +15,36 @@
 #                      view_host=10.0.0.7' (README, "Several hosts"; set ROS_IP to this host's address first)
 # Everything goes to the run directory (runs/<time>/ by default): report.md, learning_curve.png/.csv,
 # knowledge.db, the experiment as run and its provenance, launch.log, ros_log/.
-# Exit status: 0 done, 1 a phase or the report failed, 2 a bad experiment file (nothing started).
+# Exit status (README "Exit codes"): 0 done, 1 a phase or the report failed, 2 usage or a bad experiment file
+# (nothing started), 4 the run directory cannot be written.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}" hosts=""
+experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}" files=0 hosts=""
+usage() { echo "run.sh: $* (usage: bash scripts/run.sh [FILE] [--set KEY=VALUE]... [--run-dir DIR] [--hosts ARGS])" >&2; exit 2; }
 while (($#)); do
   case "$1" in
-    --set) overrides+=("$2"); shift 2 ;;
-    --run-dir) run_dir=$2; shift 2 ;;
-    --hosts) hosts=$2; shift 2 ;;
-    -*) echo "run.sh: unknown option $1 (see the comment at the top of scripts/run.sh)" >&2; exit 2 ;;
-    *) experiment=$1; shift ;;
+    --set) (($# >= 2)) || usage "--set needs KEY=VALUE"; [[ "$2" == *=* ]] || usage "--set $2: expected KEY=VALUE"
+           overrides+=("$2"); shift 2 ;;
+    --run-dir) (($# >= 2)) && [[ -n "$2" ]] || usage "--run-dir needs a directory"; run_dir=$2; shift 2 ;;
+    --hosts) (($# >= 2)) || usage "--hosts needs ARGS"; hosts=$2; shift 2 ;;
+    -*) usage "unknown option $1" ;;
+    *) experiment=$1; files=$((files + 1)); shift ;;
   esac
 done
-[[ -f "$experiment" ]] || { echo "run.sh: $experiment: no such experiment file" >&2; exit 2; }
+((files <= 1)) || usage "give one experiment file, not $files"
+[[ -e "$experiment" ]] || { echo "run.sh: $experiment: no such experiment file" >&2; exit 2; }
+[[ -f "$experiment" && -r "$experiment" ]] || { echo "run.sh: $experiment: not a readable experiment file" >&2; exit 2; }
 experiment=$(cd "$(dirname "$experiment")" && pwd)/$(basename "$experiment")  # the nodes run elsewhere
-[[ -z "$run_dir" ]] || { mkdir -p "$run_dir"; run_dir=$(cd "$run_dir" && pwd); }
+if [[ -n "$run_dir" ]]; then
+  mkdir -p "$run_dir" 2>/dev/null && [[ -w "$run_dir" ]] ||
+    { echo "run.sh: the run directory $run_dir cannot be created or written" >&2; exit 4; }
+  run_dir=$(cd "$run_dir" && pwd)
+fi
+# Built already? Then a bad file (or --set) is refused at once, before the build and the master.
+checker="$repo/build/devel/lib/xpersif/xpersif_experiment"
+if [[ -x "$checker" ]]; then
+  "$checker" check "$experiment" "${overrides[@]}" >/dev/null || exit 2
+fi
 
 bash "$repo/scripts/setup.sh"
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"

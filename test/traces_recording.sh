@@ -3,7 +3,7 @@
 # Debian's rosbag record started by launch/record.launch:
 #  1. SIGINT to roslaunch        -> closed, readable, exportable bags and run.yaml with the code version
 #  2. SIGTERM to the recorder    -> closed, readable bags
-#  3. SIGKILL to the recorder    -> X.bag.active; the exporter refuses it (exit 1, names the file, gives advice);
+#  3. SIGKILL to the recorder    -> X.bag.active; the exporter refuses it (exit 3, names the file, gives advice);
 #                                   xpersif_recover_bag reindexes it and says how many messages were kept;
 #                                   the exporter then reads the run
 #  4. SNAPSHOTRECORDER           -> surprise above ~threshold writes surprise_<t>.bag holding <= ~seconds of
@@ -93,7 +93,7 @@ active=$(ls "$T/kill"/*.bag.active 2>/dev/null | head -1)
 set +e
 "$BIN/xpersif_export" -o "$T" "$T/kill" 2>"$T/kill.err"; rc=$?
 set -e
-[ "$rc" = 1 ] || fail "export of a killed run exited $rc, not 1"
+[ "$rc" = 3 ] || fail "export of a killed run exited $rc, not 3 (a bad input file)"
 grep -q "xpersif_recover_bag" "$T/kill.err" && grep -qF "$active" "$T/kill.err" || fail "no advice: $(cat "$T/kill.err")"
 "$BIN/xpersif_recover_bag" "$active" | tee "$T/recover.log"
 kept=$(sed -n 's/.*kept \([0-9]*\) messages.*/\1/p' "$T/recover.log" | head -1)

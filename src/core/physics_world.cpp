@@ -68,6 +68,10 @@ struct GeomInfo {
 };
 
 constexpr int kMaxContacts = 8;
+constexpr double kPlacementTolerance = 0.001;  ///< m: how far a placed body may reach into the floor or another body
+constexpr double kRestClearance = 0.0001;      ///< m: a body set down on the floor hovers this much above it
+constexpr double kMaxPlacementHeight = 10.0;   ///< m: the highest a body may be placed (its lowest point)
+constexpr int kMaxBlowUpsInARow = 10;          ///< resolved blow-ups in consecutive steps before the world halts
 constexpr double kBallSpinDamping = 3.0;  ///< 1/s: how fast a ball's spin decays (ODE has no rolling resistance)
 
 }  // namespace
@@ -100,6 +104,18 @@ struct PhysicsWorld::Impl {
   std::vector<BodyState> good_state;
   double good_time = 0, good_left_angle = 0, good_right_angle = 0;
   Odometry good_odometry;
+  /// The highest any body's lowest point stood above the floor when every body last moved slower than
+  /// max_speed: a fall from there is legal, and bounds how fast a body may legally move (speedLimit()).
+  double fall_height = 0;
+  /// Steps in a row that blew up (each resolved): a world that keeps blowing up is halted, not nursed forever.
+  int blow_ups_in_a_row = 0;
+
+  /// What went wrong in a step, and with which body (nullptr when nothing did).
+  struct Trouble {
+    dBodyID body = nullptr;
+    std::string what;
+    bool none() const { return what.empty(); }
+  };
 
   explicit Impl(const WorldSpec& s) : spec(s) {}
   ~Impl() { destroy(); }
@@ -153,6 +169,7 @@ struct PhysicsWorld::Impl {
     buildRobot();
     for (const auto& object : spec.objects) buildObject(object);
     saveGoodState();
+    updateFallHeight();
   }
 
   void buildArena() {
@@ -347,39 +364,115 @@ struct PhysicsWorld::Impl {
   }
 
   // ODE aborts the process on some non-finite inputs, so pending forces are checked before a step.
-  std::string pendingForceProblem() const {
-    std::string problem;
+  Trouble pendingForceProblem() const {
+    Trouble trouble;
     forEachBody([&](dBodyID b) {
+      if (!trouble.none()) return;
       const dReal* f = dBodyGetForce(b);
       const dReal* t = dBodyGetTorque(b);
-      for (int k = 0; k < 3 && problem.empty(); ++k) {
-        if (!std::isfinite(f[k]) || !std::isfinite(t[k])) problem = bodyName(b) + " has a non-finite force or torque";
+      for (int k = 0; k < 3; ++k) {
+        if (!std::isfinite(f[k]) || !std::isfinite(t[k])) {
+          trouble = {b, bodyName(b) + " has a non-finite force or torque"};
+          return;
+        }
       }
     });
-    return problem;
+    return trouble;
   }
 
-  std::string health() const {
-    std::string problem;
+  /// The lowest point of a body's collision geometry (world z), from ODE's bounding boxes, which are exact
+  /// in z for boxes, spheres and upright or tilted cylinders' end discs.
+  static double lowestOf(dBodyID b) {
+    double lowest = std::numeric_limits<double>::infinity();
+    for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) {
+      dReal aabb[6];
+      dGeomGetAABB(g, aabb);
+      lowest = std::min(lowest, static_cast<double>(aabb[4]));
+    }
+    return std::isfinite(lowest) ? lowest : dBodyGetPosition(b)[2];
+  }
+
+  static double speedOf(dBodyID b) {
+    const dReal* v = dBodyGetLinearVel(b);
+    return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  }
+
+  /// A body may move at max_speed plus twice what a fall from fall_height gives (sqrt(2 g h)): the factor
+  /// two leaves room for a collision that passes a falling body's speed on to a lighter one.
+  double speedLimit() const {
+    return spec.physics.max_speed + 2 * std::sqrt(2 * std::fabs(spec.physics.gravity) * fall_height);
+  }
+
+  /// After a good step or a placement: while every body is slower than max_speed, the highest one sets how
+  /// far a body may yet fall; while one is faster (falling), the height it started from stays.
+  void updateFallHeight() {
+    bool calm = true;
+    double highest = 0;
     forEachBody([&](dBodyID b) {
-      if (!problem.empty()) return;
+      calm = calm && speedOf(b) <= spec.physics.max_speed;
+      highest = std::max(highest, lowestOf(b));
+    });
+    if (calm) fall_height = highest;
+  }
+
+  Trouble health() const {
+    Trouble trouble;
+    const double limit = speedLimit();
+    forEachBody([&](dBodyID b) {
+      if (!trouble.none()) return;
       const dReal* p = dBodyGetPosition(b);
       const dReal* q = dBodyGetQuaternion(b);
       const dReal* v = dBodyGetLinearVel(b);
       const dReal* w = dBodyGetAngularVel(b);
       for (int k = 0; k < 3; ++k) {
         if (!std::isfinite(p[k]) || !std::isfinite(v[k]) || !std::isfinite(w[k]) || !std::isfinite(q[k]) || !std::isfinite(q[3])) {
-          problem = bodyName(b) + " has a non-finite position, orientation or velocity";
+          trouble = {b, bodyName(b) + " has a non-finite position, orientation or velocity"};
           return;
         }
       }
-      const double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-      if (speed > spec.physics.max_speed) {
-        problem = bodyName(b) + " moves at " + describeNumber(speed) + " m/s, faster than physics.max_speed " +
-                  describeNumber(spec.physics.max_speed);
+      const double speed = speedOf(b);
+      if (speed > limit) {
+        trouble = {b, bodyName(b) + " moves at " + describeNumber(speed) + " m/s, faster than " + describeNumber(limit) +
+                          " m/s (physics.max_speed " + describeNumber(spec.physics.max_speed) +
+                          (fall_height > 0 ? " plus twice what a fall from " + describeNumber(fall_height) + " m gives"
+                                           : std::string()) +
+                          ")"};
       }
     });
-    return problem;
+    return trouble;
+  }
+
+  /// Put a body at rest where it is: no velocity, no pending force. A robot body stops the whole robot.
+  void putAtRest(dBodyID body) {
+    auto rest = [](dBodyID b) {
+      dBodySetLinearVel(b, 0, 0, 0);
+      dBodySetAngularVel(b, 0, 0, 0);
+      dBodySetForce(b, 0, 0, 0);
+      dBodySetTorque(b, 0, 0, 0);
+    };
+    if (std::find(robot_bodies.begin(), robot_bodies.end(), body) != robot_bodies.end()) {
+      for (dBodyID b : robot_bodies) rest(b);
+    } else {
+      rest(body);
+    }
+  }
+
+  /// One physics step from the current state, not yet committed; what went wrong, if anything.
+  Trouble attempt(double dt) {
+    Trouble trouble = pendingForceProblem();
+    if (!trouble.none()) return trouble;
+    dSpaceCollide(space, this, &Impl::nearCallback);
+    // ODE's solver shuffles constraints with a process-wide generator; keep a private seed per world.
+    dRandSetSeed(random_seed);
+    dWorldQuickStep(world, dt);
+    random_seed = dRandGetSeed();
+    dJointGroupEmpty(contacts);
+    return health();
+  }
+
+  std::string describeBody(dBodyID b) const {
+    if (std::find(robot_bodies.begin(), robot_bodies.end(), b) != robot_bodies.end()) return "the robot " + spec.robot.name;
+    return bodyName(b);
   }
 
   void applyWheelCommands() {
@@ -412,25 +505,56 @@ PhysicsWorld::StepResult PhysicsWorld::step() {
   initOde();
   Impl& w = *impl_;
   w.applyWheelCommands();
-  StepResult result;
-  std::string problem = w.pendingForceProblem();
-  if (problem.empty()) {
-    dSpaceCollide(w.space, &w, &Impl::nearCallback);
-    // ODE's solver shuffles constraints with a process-wide generator; keep a private seed per world.
-    dRandSetSeed(w.random_seed);
-    dWorldQuickStep(w.world, spec_.physics.step);
-    w.random_seed = dRandGetSeed();
-    dJointGroupEmpty(w.contacts);
-    problem = w.health();
-  }
-  if (!problem.empty()) {
-    w.restoreGoodState();
-    result.ok = false;
-    result.problem = "physics blow-up at t=" + describeNumber(w.time) + " s: " + problem +
-                     "; the world was put back to its last good state";
-    return result;
-  }
   const double dt = spec_.physics.step;
+  const unsigned long seed = w.random_seed;
+  StepResult result;
+  Impl::Trouble trouble = w.attempt(dt);
+  if (trouble.none()) {
+    w.blow_ups_in_a_row = 0;
+  } else {
+    // A real blow-up: undo the step, then resolve it so that the next try is a different state (never the
+    // same failing step again): first the offending body at rest at its last good pose, then every body.
+    result.ok = false;
+    result.problem = "physics blow-up at t=" + describeNumber(w.time) + " s: " + trouble.what;
+    w.restoreGoodState();
+    w.random_seed = seed;
+    w.putAtRest(trouble.body ? trouble.body : w.robot_bodies.front());
+    const std::string rested = trouble.body ? w.describeBody(trouble.body) : std::string("the robot");
+    Impl::Trouble again = w.attempt(dt);
+    if (++w.blow_ups_in_a_row >= kMaxBlowUpsInARow) {
+      w.restoreGoodState();
+      w.random_seed = seed;
+      w.forEachBody([&](dBodyID b) { w.putAtRest(b); });
+      w.saveGoodState();
+      w.blow_ups_in_a_row = 0;
+      result.halted = true;
+      result.problem += "; the world blew up in " + std::to_string(kMaxBlowUpsInARow) +
+                        " steps in a row: it stays at its last good state, at rest, until a body is moved or the world reset";
+      return result;
+    }
+    if (again.none()) {
+      result.problem += "; the step was undone and " + rested + " put at rest at its last good pose";
+    } else {
+      w.restoreGoodState();
+      w.random_seed = seed;
+      w.forEachBody([&](dBodyID b) { w.putAtRest(b); });
+      Impl::Trouble still = w.attempt(dt);
+      if (still.none()) {
+        result.problem += "; with " + rested + " at rest it blew up again (" + again.what +
+                          "), so every body was put at rest at its last good pose";
+      } else {
+        w.restoreGoodState();
+        w.random_seed = seed;
+        w.forEachBody([&](dBodyID b) { w.putAtRest(b); });
+        w.saveGoodState();
+        w.blow_ups_in_a_row = 0;
+        result.halted = true;
+        result.problem += "; it blows up even with every body at rest (" + still.what +
+                          "): the world stays at its last good state, at rest, until a body is moved or the world reset";
+        return result;
+      }
+    }
+  }
   const double left_rate = w.wheelRate(w.left_wheel), right_rate = w.wheelRate(w.right_wheel);
   w.left_angle += left_rate * dt;
   w.right_angle += right_rate * dt;
@@ -446,6 +570,7 @@ PhysicsWorld::StepResult PhysicsWorld::step() {
   w.time += dt;
   ++w.steps;
   w.saveGoodState();
+  w.updateFallHeight();
   return result;
 }
 
@@ -464,38 +589,181 @@ void PhysicsWorld::setVelocity(double linear, double angular) {
   setWheelSpeeds(linear - angular * half, linear + angular * half);
 }
 
-void PhysicsWorld::setPose(const std::string& body, const Eigen::Isometry3d& pose) {
-  requireKnownName("body", body, spec_.bodyNames());
+namespace {
+
+/// The poses of the bodies a placement moves, and where they were, to put them back bit for bit.
+struct Placement {
+  std::vector<dBodyID> bodies;
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<BodyState> saved;
+};
+
+void moveTo(const Placement& p) {
+  for (std::size_t i = 0; i < p.bodies.size(); ++i) setPoseOf(p.bodies[i], p.poses[i]);
+}
+
+void moveBack(const Placement& p) {
+  for (std::size_t i = 0; i < p.bodies.size(); ++i) {
+    dBodySetPosition(p.bodies[i], p.saved[i].position[0], p.saved[i].position[1], p.saved[i].position[2]);
+    dBodySetQuaternion(p.bodies[i], p.saved[i].orientation);
+  }
+}
+
+std::string point(const Eigen::Vector3d& p) {
+  return "(" + describeNumber(p.x()) + ", " + describeNumber(p.y()) + ", " + describeNumber(p.z()) + ")";
+}
+
+std::string millimetres(double metres) { return describeNumber(std::round(metres * 1e4) / 10) + " mm"; }
+
+}  // namespace
+
+PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& body, const Eigen::Isometry3d& pose,
+                                                          bool on_floor, Eigen::Isometry3d* placed) const {
+  PlacementCheck check;
+  if (const std::string why = checkKnownName("body", body, spec_.bodyNames()); !why.empty()) {
+    check.problem = PlacementCheck::Problem::Invalid;
+    check.why = why;
+    return check;
+  }
   const Eigen::Vector3d p = pose.translation();
   const Eigen::Quaterniond q(pose.rotation());
-  requireFinite("pose.x", p.x());
-  requireFinite("pose.y", p.y());
-  requireFinite("pose.z", p.z());
-  requireUnitQuaternion("pose.orientation", q.x(), q.y(), q.z(), q.w());
-  const double hx = spec_.arena.size_x / 2, hy = spec_.arena.size_y / 2;
-  if (std::fabs(p.x()) > hx || std::fabs(p.y()) > hy || p.z() < -0.01 || p.z() > 10) {
-    throw ValidationError("pose (" + describeNumber(p.x()) + ", " + describeNumber(p.y()) + ", " +
-                          describeNumber(p.z()) + ") is outside the arena (|x| <= " + describeNumber(hx) +
-                          ", |y| <= " + describeNumber(hy) + ")");
+  std::string why = checkFinite("pose.x", p.x());
+  if (why.empty()) why = checkFinite("pose.y", p.y());
+  if (why.empty() && !on_floor) why = checkFinite("pose.z", p.z());
+  if (why.empty()) why = checkUnitQuaternion("pose.orientation", q.x(), q.y(), q.z(), q.w());
+  if (!why.empty()) {
+    check.problem = PlacementCheck::Problem::Invalid;
+    check.why = why;
+    return check;
   }
+  Impl& w = *impl_;
+  initOde();
+  const bool robot = body == spec_.robot.name;
+  Placement placement;
+  if (robot) {
+    // Every link moves rigidly with the root, the wheels keeping their place relative to the body.
+    Eigen::Isometry3d target = pose;
+    if (on_floor) target.translation().z() = 0;
+    const Eigen::Isometry3d delta = target * poseOf(w.robot_bodies[0]).inverse();
+    for (dBodyID b : w.robot_bodies) {
+      placement.bodies.push_back(b);
+      placement.poses.push_back(delta * poseOf(b));
+    }
+  } else {
+    placement.bodies.push_back(w.body(body));
+    placement.poses.push_back(pose);
+    if (on_floor) placement.poses.back().translation().z() = 0;
+  }
+  for (dBodyID b : placement.bodies) {
+    BodyState s;
+    std::copy_n(dBodyGetPosition(b), 3, s.position);
+    std::copy_n(dBodyGetQuaternion(b), 4, s.orientation);
+    placement.saved.push_back(s);
+  }
+  auto extents = [&](double* lo, double* hi) {  // x, y, z of the moved geometry's bounding box
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::numeric_limits<double>::infinity();
+      hi[k] = -lo[k];
+    }
+    for (dBodyID b : placement.bodies) {
+      for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) {
+        dReal aabb[6];
+        dGeomGetAABB(g, aabb);
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = std::min(lo[k], static_cast<double>(aabb[2 * k]));
+          hi[k] = std::max(hi[k], static_cast<double>(aabb[2 * k + 1]));
+        }
+      }
+    }
+  };
+  double lo[3], hi[3];
+  moveTo(placement);
+  extents(lo, hi);
+  if (on_floor) {  // set down resting on the floor, as the world file's objects start
+    const double lift = kRestClearance - lo[2];
+    for (auto& t : placement.poses) t.translation().z() += lift;
+    moveTo(placement);
+    extents(lo, hi);
+  }
+  const std::string what = robot ? "the robot " + body : body;
+  const Eigen::Vector3d where = placement.poses.front().translation();
+  const double hx = spec_.arena.size_x / 2, hy = spec_.arena.size_y / 2;
+  if (lo[0] < -hx - kPlacementTolerance || hi[0] > hx + kPlacementTolerance || lo[1] < -hy - kPlacementTolerance ||
+      hi[1] > hy + kPlacementTolerance) {
+    check.problem = PlacementCheck::Problem::Invalid;
+    check.why = what + " at " + point(where) + " would reach x " + describeNumber(lo[0]) + ".." + describeNumber(hi[0]) +
+                ", y " + describeNumber(lo[1]) + ".." + describeNumber(hi[1]) + ", outside the arena (inside its walls |x| <= " +
+                describeNumber(hx) + ", |y| <= " + describeNumber(hy) + ")";
+  } else if (lo[2] < -kPlacementTolerance) {
+    check.problem = PlacementCheck::Problem::Invalid;
+    check.why = what + " at " + point(where) + " would reach " + millimetres(-lo[2]) +
+                " under the floor; at this orientation its origin must be at z >= " + describeNumber(where.z() - lo[2]) +
+                " (or set it down on the floor with on_floor)";
+  } else if (lo[2] > kMaxPlacementHeight) {
+    check.problem = PlacementCheck::Problem::Invalid;
+    check.why = what + " at " + point(where) + " would float " + describeNumber(lo[2]) + " m above the floor; at most " +
+                describeNumber(kMaxPlacementHeight) + " m";
+  } else {
+    // Every other body's geometry, at its current pose: the robot's links, the objects. (Walls lie outside
+    // the arena and the floor below it: the bounds above cover them.)
+    std::vector<dGeomID> moved;
+    for (dBodyID b : placement.bodies) {
+      for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) moved.push_back(g);
+    }
+    double deepest = 0;
+    dBodyID other = nullptr;
+    const int n = dSpaceGetNumGeoms(w.space);
+    for (int i = 0; i < n; ++i) {
+      dGeomID g = dSpaceGetGeom(w.space, i);
+      dBodyID b = dGeomGetBody(g);
+      if (!b || std::find(placement.bodies.begin(), placement.bodies.end(), b) != placement.bodies.end()) continue;
+      for (dGeomID m : moved) {
+        dContactGeom contact[kMaxContacts];
+        const int hits = dCollide(m, g, kMaxContacts, contact, sizeof(dContactGeom));
+        for (int k = 0; k < hits; ++k) {
+          if (contact[k].depth > deepest) {
+            deepest = contact[k].depth;
+            other = b;
+          }
+        }
+      }
+    }
+    if (other && deepest > kPlacementTolerance) {
+      check.problem = PlacementCheck::Problem::Overlap;
+      check.why = what + " at " + point(where) + " would overlap " + w.describeBody(other) + " by " + millimetres(deepest) +
+                  "; choose a free place";
+    }
+  }
+  if (placed) *placed = placement.poses.front();
+  moveBack(placement);
+  return check;
+}
+
+void PhysicsWorld::setPose(const std::string& body, const Eigen::Isometry3d& pose, bool on_floor) {
+  Eigen::Isometry3d placed;
+  const PlacementCheck check = checkPlacement(body, pose, on_floor, &placed);
+  if (!check.ok()) throw ValidationError(check.why);
   Impl& w = *impl_;
   auto place = [](dBodyID b, const Eigen::Isometry3d& t) {
     setPoseOf(b, t);
     dBodySetLinearVel(b, 0, 0, 0);
     dBodySetAngularVel(b, 0, 0, 0);
+    dBodySetForce(b, 0, 0, 0);
+    dBodySetTorque(b, 0, 0, 0);
   };
   if (body == spec_.robot.name) {
     // Move every link rigidly with the root, keeping the wheels where they are relative to the body.
-    const Eigen::Isometry3d delta = pose * poseOf(w.robot_bodies[0]).inverse();
+    const Eigen::Isometry3d delta = placed * poseOf(w.robot_bodies[0]).inverse();
     for (dBodyID b : w.robot_bodies) place(b, delta * poseOf(b));
     w.odometry = Odometry{};
-    w.odometry.x = p.x();
-    w.odometry.y = p.y();
-    w.odometry.yaw = yawOf(pose);
+    w.odometry.x = placed.translation().x();
+    w.odometry.y = placed.translation().y();
+    w.odometry.yaw = yawOf(placed);
   } else {
-    place(w.body(body), pose);
+    place(w.body(body), placed);
   }
   w.saveGoodState();
+  w.updateFallHeight();
 }
 
 double PhysicsWorld::time() const { return impl_->time; }
@@ -572,7 +840,7 @@ PhysicsWorld::WheelState PhysicsWorld::wheels() const {
   return s;
 }
 
-std::string PhysicsWorld::checkHealth() const { return impl_->health(); }
+std::string PhysicsWorld::checkHealth() const { return impl_->health().what; }
 
 void PhysicsWorld::injectFault(const std::string& body, bool explode) {
   dBodyID b = impl_->body(body);

@@ -46,7 +46,13 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
         return core::Bindings{{"?pose", describePose(g.target.x, g.target.y, g.target.theta)}};
       })
       .check("finite(?pose)",
-             [](const GoToPoseGoal& g) { return core::checkPose("goal.target", toPose(g.target)); })
+             [](const GoToPoseGoal& g) {
+               // The message's own field names (geometry_msgs/Pose2D: x, y, theta), so the sentence points at them.
+               std::string why = core::checkFinite("goal.target.x", g.target.x);
+               if (why.empty()) why = core::checkFinite("goal.target.y", g.target.y);
+               if (why.empty()) why = core::checkFinite("goal.target.theta", g.target.theta);
+               return why;
+             })
       .check("localized(robot)",
              [this](const GoToPoseGoal& g) {
                core::Pose2D pose;

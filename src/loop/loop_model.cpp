@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
 #include "xpersif/ChoosePush.h"
 #include "xpersif/DesignExperiment.h"
@@ -335,6 +336,7 @@ int LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
       place.request.pose.position.x = x;
       place.request.pose.position.y = y;
       place.request.pose.orientation.w = 1.0;
+      place.request.on_floor = true;
       const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
       if (!why.empty()) {
         ROS_WARN("%s: could not tidy %s away: %s", name.c_str(), this->name().c_str(), why.c_str());
@@ -351,14 +353,34 @@ int LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
 }
 
 std::string LoopModel::arrangeInitialScene() {
+  // XPERSim refuses a place another body occupies (PRECONDITION_FAILED). A body whose start is taken (by a body
+  // that has yet to go to its own) is parked 1 m above its start, where nothing is, and set down once every
+  // body has its place: the world file's start poses never overlap, so that always succeeds. Parked bodies do
+  // not fall meanwhile: no physics step runs between these calls (an idle tick does not step).
+  std::vector<std::string> parked;
+  auto place = [&](const std::string& name, const core::Pose2D& pose, bool parking) {
+    SetPose request;
+    request.request.name = name;
+    request.request.pose.position.x = pose.x;
+    request.request.pose.position.y = pose.y;
+    request.request.pose.position.z = parking ? 1.0 : 0.0;
+    request.request.pose.orientation.z = std::sin(pose.yaw / 2);
+    request.request.pose.orientation.w = std::cos(pose.yaw / 2);
+    request.request.on_floor = !parking;
+    std::uint8_t code = ResultCode::OK;
+    const std::string why = call(nodeHandle(), "xpersim/set_pose", request, &code);
+    return std::make_pair(why, code);
+  };
   for (const auto& [name, pose] : setup_.initial_poses) {
-    SetPose place;
-    place.request.name = name;
-    place.request.pose.position.x = pose.x;
-    place.request.pose.position.y = pose.y;
-    place.request.pose.orientation.z = std::sin(pose.yaw / 2);
-    place.request.pose.orientation.w = std::cos(pose.yaw / 2);
-    const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
+    auto [why, code] = place(name, pose, false);
+    if (!why.empty() && code == ResultCode::PRECONDITION_FAILED) {
+      std::tie(why, code) = place(name, pose, true);
+      if (why.empty()) parked.push_back(name);
+    }
+    if (!why.empty()) return why;
+  }
+  for (const auto& name : parked) {
+    const auto [why, code] = place(name, setup_.initial_poses.at(name), false);
     if (!why.empty()) return why;
   }
   return "";

@@ -23,6 +23,7 @@
 #include <fstream>
 
 #include "xpersif/core/perception.h"
+#include "xpersif/core/command_line.h"
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/core/validation.h"
@@ -44,7 +45,7 @@ const char* kUsage = R"(usage: xpersif <command> [arguments]
                                        ask a component for a lifecycle transition
   contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
   check-world FILE                     check a world file without ROS: what the loop will be told about its
-                                       objects and the limits derived from them; exit 2 with the reason
+                                       objects and the limits derived from them; exit 3 with the reason
   rerun RUN_DIR [--run-dir DIR] [KEY=VALUE...]
                                        repeat the experiment of a run directory from what it stored
                                        (RUN_DIR/experiment.yaml, its world and URDF) through
@@ -209,8 +210,8 @@ bool parseExperiment(const std::vector<std::string>& words, std::size_t at, xper
   e->object = words[at];
   e->side = words[at + 1];
   try {
-    e->offset = std::stod(words[at + 2]);
-    e->distance = std::stod(words[at + 3]);
+    e->offset = xpersif::core::parseRealNumber("OFFSET", words[at + 2], -1e3, 1e3);
+    e->distance = xpersif::core::parseRealNumber("DISTANCE", words[at + 3], -1e3, 1e3);
   } catch (const std::exception&) {
     return false;
   }
@@ -275,8 +276,10 @@ int progress() {
 
 volatile std::sig_atomic_t interrupted = 0;
 
-int runLoop(const std::vector<std::string>& rest) {
-  xpersif::RunLoopGoal goal;
+/// The run command's goal from its arguments, before anything talks to ROS: kExitOk, or the exit code after the
+/// sentence has been printed.
+int parseRunGoal(const std::vector<std::string>& rest, xpersif::RunLoopGoal& goal) {
+  using xpersif::core::parseWholeNumber;
   goal.experiments = 20;
   goal.goals = 5;
   goal.design = "curiosity";
@@ -285,24 +288,28 @@ int runLoop(const std::vector<std::string>& rest) {
   try {
     for (std::size_t i = 0; i < rest.size(); ++i) {
       const std::string& a = rest[i];
-      const bool has_value = i + 1 < rest.size();
-      if (a == "--experiments" && has_value) {
-        goal.experiments = static_cast<std::uint32_t>(std::stoul(rest[++i]));
-      } else if (a == "--goals" && has_value) {
-        goal.goals = static_cast<std::uint32_t>(std::stoul(rest[++i]));
-      } else if (a == "--design" && has_value) {
-        goal.design = rest[++i];
-      } else if (a == "--seed" && has_value) {
-        goal.seed = std::stoull(rest[++i]);
+      auto value = [&]() -> const std::string& {
+        if (i + 1 >= rest.size()) throw xpersif::core::UsageError(a + " needs a value");
+        return rest[++i];
+      };
+      if (a == "--experiments") {
+        goal.experiments = static_cast<std::uint32_t>(parseWholeNumber("--experiments", value(), 0, UINT32_MAX));
+      } else if (a == "--goals") {
+        goal.goals = static_cast<std::uint32_t>(parseWholeNumber("--goals", value(), 0, UINT32_MAX));
+      } else if (a == "--design") {
+        goal.design = value();
+      } else if (a == "--seed") {
+        goal.seed = parseWholeNumber("--seed", value());
       } else if (a == "--resume") {
         goal.resume = true;
       } else if (a == "--confirm-each") {
         goal.confirm_each = true;
-      } else if (a == "--plan" && has_value) {
-        std::ifstream in(rest[++i]);
+      } else if (a == "--plan") {
+        const std::string& file = value();
+        std::ifstream in(file);
         if (!in) {
-          std::cerr << "xpersif: cannot read the plan file " << rest[i] << "\n";
-          return 2;
+          std::cerr << "xpersif: cannot read the plan file " << file << "\n";
+          return xpersif::core::kExitUsage;
         }
         std::string line;
         for (int number = 1; std::getline(in, line); ++number) {
@@ -311,24 +318,31 @@ int runLoop(const std::vector<std::string>& rest) {
           if (parts.empty() || parts[0][0] == '#') continue;
           xpersif::Experiment e;
           if (!parseExperiment(parts, 0, &e)) {
-            std::cerr << "xpersif: " << rest[i] << ":" << number << ": expected OBJECT SIDE OFFSET DISTANCE\n";
-            return 2;
+            std::cerr << "xpersif: " << file << ":" << number
+                      << ": expected OBJECT SIDE OFFSET DISTANCE (offset and distance finite numbers)\n";
+            return xpersif::core::kExitUsage;
           }
           goal.plan.push_back(e);
         }
+      } else if (!a.empty() && a[0] == '-') {
+        throw xpersif::core::UsageError("run: unknown option " + a);
       } else {
         words.push_back(a);
       }
     }
-  } catch (const std::exception&) {
-    std::cerr << "xpersif: run: a number was expected after an option\n";
-    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: " << e.what() << "\n";
+    return xpersif::core::kExitUsage;
   }
   if (words.size() != 1) {
     std::cerr << "xpersif: run needs exactly one NAME\n" << kUsage;
-    return 2;
+    return xpersif::core::kExitUsage;
   }
   goal.name = words[0];
+  return xpersif::core::kExitOk;
+}
+
+int runLoop(xpersif::RunLoopGoal goal) {
   actionlib::SimpleActionClient<xpersif::RunLoopAction> client(loop_name + "/run", true);
   if (!client.waitForServer(ros::Duration(30.0))) {
     std::cerr << "xpersif: " << loop_name << "/run is not offered (is the loop running?)\n";
@@ -376,7 +390,7 @@ int checkWorld(const std::string& file) {
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "xpersif: " << e.what() << "\n";
-    return 2;
+    return xpersif::core::kExitBadInput;
   }
 }
 
@@ -460,10 +474,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> rest;
   for (std::size_t i = 1; i < args.size(); ++i) {
     if (args[i] == "--timeout" && i + 1 < args.size()) {
-      std::istringstream in(args[++i]);
-      if (!(in >> timeout) || !(timeout > 0)) {
-        std::cerr << "xpersif: --timeout needs a positive number of seconds, not '" << args[i] << "'\n";
-        return 2;
+      try {
+        timeout = xpersif::core::parseRealNumber("--timeout", args[++i], 1e-3, 1e6);
+      } catch (const std::exception& e) {
+        std::cerr << "xpersif: " << e.what() << " seconds\n";
+        return xpersif::core::kExitUsage;
       }
     } else if (args[i] == "--loop" && i + 1 < args.size()) {
       loop_name = args[++i];
@@ -479,6 +494,29 @@ int main(int argc, char** argv) {
     return checkWorld(rest[0]);
   }
   if (command == "rerun") return rerun(rest);
+  // Arguments are checked before anything talks to ROS: a typo is a usage error whether or not a system runs.
+  xpersif::RunLoopGoal run_goal;
+  if (command == "run") {
+    if (const int code = parseRunGoal(rest, run_goal); code != xpersif::core::kExitOk) return code;
+  }
+  const bool known = command == "status" || (command == "wait" && !rest.empty()) || command == "run" || command == "next" ||
+                     command == "progress" ||
+                     ((command == "configure" || command == "activate" || command == "deactivate" ||
+                       command == "shutdown") && rest.size() == 1) ||
+                     (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) ||
+                     ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") &&
+                      rest.empty());
+  if (!known) {
+    std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
+    return xpersif::core::kExitUsage;
+  }
+  if (command == "next") {
+    xpersif::Experiment e;
+    if (rest.size() != 4 || !parseExperiment(rest, 0, &e)) {
+      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers)\n";
+      return xpersif::core::kExitUsage;
+    }
+  }
   ros::init(argc, argv, "xpersif_console", ros::init_options::AnonymousName | ros::init_options::NoSigintHandler);
   if (command == "wait") {
     // The system may still be starting: give the master the same time as the components.
@@ -487,7 +525,7 @@ int main(int argc, char** argv) {
   }
   if (!ros::master::check()) {
     std::cerr << "xpersif: no ROS master at " << ros::master::getURI() << " (start the system first)\n";
-    return 1;
+    return xpersif::core::kExitFailed;
   }
   // Keep the node up for the whole command: the helpers' short-lived NodeHandles would otherwise
   // shut it down when the first of them goes away.
@@ -507,7 +545,7 @@ int main(int argc, char** argv) {
   if (command == "run") {
     ros::AsyncSpinner spinner(1);
     spinner.start();
-    return runLoop(rest);
+    return runLoop(run_goal);
   }
   if ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") && rest.empty()) {
     return trigger(command);

@@ -15,6 +15,7 @@
 //   Exit status 0 when every phase succeeded and the report was written, 1 otherwise, 2 for a bad file; the
 //   same code and a sentence go to RUN_DIR/status and to ~status_file (Debian's roslaunch exits 0 whatever
 //   its required node returned: scripts/run.sh exits with this file's code).
+#include <ros/master.h>
 #include <ros/ros.h>
 
 #include <actionlib/client/simple_action_client.h>
@@ -495,6 +496,20 @@ class Runner {
 int main(int argc, char** argv) {
   if (argc >= 2 && std::string(argv[1]) == "check") return check(std::vector<std::string>(argv + 2, argv + argc));
   ros::init(argc, argv, "experiment_runner");
+  // As a node it takes its settings as private parameters: anything left after ROS's remappings is a mistake.
+  std::vector<std::string> left;
+  ros::removeROSArgs(argc, argv, left);
+  if (left.size() > 1) {
+    std::cerr << "xpersif_experiment: unexpected argument '" << left[1]
+              << "'; usage: xpersif_experiment check FILE [--components CONFIG,...] [KEY=VALUE...], or as a node "
+                 "with private parameters (launch/experiment.launch)\n";
+    return 2;
+  }
+  if (!ros::master::check()) {
+    std::cerr << "xpersif_experiment: no ROS master at " << ros::master::getURI()
+              << "; run it through `roslaunch xpersif experiment.launch experiment:=FILE`\n";
+    return 1;
+  }
   ros::NodeHandle pnh("~");
   ros::AsyncSpinner spinner(1);
   spinner.start();

@@ -6,18 +6,25 @@
 // error on the evaluation run's experiments against the number of experiments learned from, for each design
 // run (the latest run of each name), the experiments each design needed to reach the error random design ends
 // with, the notions learned, and the goal-directed pushes' success.
+//
+// Exit codes as every tool of the package (core/command_line.h, README "Exit codes"): 0 written, 1 the report
+// failed (a run it needs is missing), 2 usage, 3 the knowledge base is missing, unreadable or corrupt, 4 DIR
+// cannot be written.
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <sstream>
 
+#include "xpersif/core/command_line.h"
 #include "xpersif/core/evaluation.h"
+#include "xpersif/core/knowledge_base.h"
 
 using namespace xpersif::core;
 
@@ -89,21 +96,52 @@ void plot(const std::vector<LearningCurve>& curves, const std::string& path) {
 int main(int argc, char** argv) {
   std::string database, out = ".", evaluation_name = "evaluation", goals_name;
   std::vector<std::string> designs = {"curiosity", "random"};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string key = argv[i], value = argv[i + 1];
+  const char* usage =
+      "usage: xpersif_report --database FILE --out DIR [--evaluation NAME] [--designs A,B] [--goals NAME]\n"
+      "exit: 0 written, 1 the report failed, 2 usage, 3 bad knowledge base, 4 DIR not writable\n";
+  for (int i = 1; i < argc; i += 2) {
+    const std::string key = argv[i];
+    if (key == "-h" || key == "--help") {
+      std::cout << usage;
+      return kExitOk;
+    }
+    if (key != "--database" && key != "--out" && key != "--evaluation" && key != "--designs" && key != "--goals") {
+      std::cerr << "xpersif_report: unknown option " << key << "\n" << usage;
+      return kExitUsage;
+    }
+    if (i + 1 >= argc) {
+      std::cerr << "xpersif_report: " << key << " needs a value\n" << usage;
+      return kExitUsage;
+    }
+    const std::string value = argv[i + 1];
     if (key == "--database") database = value;
     else if (key == "--out") out = value;
     else if (key == "--evaluation") evaluation_name = value;
     else if (key == "--designs") designs = split(value);
     else if (key == "--goals") goals_name = value;
-    else {
-      std::cerr << "xpersif_report: unknown option " << key << "\n";
-      return 2;
-    }
   }
   if (database.empty()) {
-    std::cerr << "usage: xpersif_report --database FILE --out DIR [--evaluation NAME] [--designs A,B] [--goals NAME]\n";
-    return 2;
+    std::cerr << "xpersif_report: give the knowledge base with --database\n" << usage;
+    return kExitUsage;
+  }
+  if (designs.empty()) {
+    std::cerr << "xpersif_report: --designs names no run\n" << usage;
+    return kExitUsage;
+  }
+  // Never create a knowledge base where none is (KnowledgeBase::open would).
+  if (const std::string why = checkReadableFile("knowledge base", database); !why.empty()) {
+    std::cerr << "xpersif_report: " << why << "\n";
+    return kExitBadInput;
+  }
+  if (const std::string why = checkWritableDirectory("output directory", out); !why.empty()) {
+    std::cerr << "xpersif_report: " << why << "\n";
+    return kExitOutput;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) {
+    std::cerr << "xpersif_report: output directory " << out << " cannot be created: " << ec.message() << "\n";
+    return kExitOutput;
   }
   try {
     auto kb = KnowledgeBase::open(database);
@@ -211,11 +249,19 @@ int main(int argc, char** argv) {
       }
       md << "\nSuccess rate: " << reached << " of " << goals.size() << " goals reached within 5 cm.\n";
     }
-    std::ofstream(out + "/report.md") << md.str();
+    std::ofstream report(out + "/report.md");
+    report << md.str();
+    if (!report) {
+      std::cerr << "xpersif_report: cannot write " << out << "/report.md\n";
+      return kExitOutput;
+    }
     std::cout << md.str();
+  } catch (const KnowledgeBaseError& e) {
+    std::cerr << "xpersif_report: " << e.what() << "\n";
+    return kExitBadInput;
   } catch (const std::exception& e) {
     std::cerr << "xpersif_report: " << e.what() << "\n";
-    return 1;
+    return kExitFailed;
   }
-  return 0;
+  return kExitOk;
 }

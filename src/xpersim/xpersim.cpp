@@ -84,6 +84,10 @@ void XPerSim::declareOperations() {
   ContractChecker<Trigger::Request> resume_contract(resume);
   addOperation<Trigger>(resume_contract, nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
     restart_pacing_ = true;
+    {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      halted_.clear();  // tried again by hand: a blow-up that persists halts it again, with its sentence
+    }
     paused_ = false;
     wake_.notify_all();
     lockstep_wake_.notify_all();
@@ -103,16 +107,23 @@ void XPerSim::declareOperations() {
         std::unique_lock<std::mutex> lock(world_mutex_);
         if (lockstep_ && running_ && !lockstep_->participants().empty()) {
           // Whole ticks, through the participants: time passes for everyone, in step.
+          if (paused_) {
+            throw core::UnavailableError(
+                "the simulator is paused, and in lockstep with participants time passes only through their ticks: "
+                "resume it first" + (halted_.empty() ? std::string() : " (" + halted_ + ")"));
+          }
           const std::uint64_t ticks = (request.steps + steps_per_tick_ - 1) / steps_per_tick_;
           const std::uint64_t until = ticks_done_ + lockstep_->requestedTicks() + ticks;
           lockstep_->requestTicks(ticks);
           lockstep_wake_.notify_all();
-          while (ticks_done_ < until && running_ && ros::ok()) lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
+          while (ticks_done_ < until && running_ && ros::ok() && !paused_) {
+            lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
+          }
           response.time = simTimeLocked();
           return;
         }
         paused_ = true;
-        for (std::int64_t i = 0; i < request.steps; ++i) stepLocked();
+        for (std::int64_t i = 0; i < request.steps && halted_.empty(); ++i) stepLocked();
         response.time = simTimeLocked();
       });
 
@@ -160,6 +171,12 @@ void XPerSim::declareOperations() {
                         nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
                           std::lock_guard<std::mutex> lock(world_mutex_);
                           world_->reset();
+                          if (!halted_.empty()) {
+                            halted_.clear();
+                            paused_ = false;
+                            wake_.notify_all();
+                            lockstep_wake_.notify_all();
+                          }
                           idle_time_ = 0;
                           next_frame_ = next_sensors_ = 0;
                           restart_pacing_ = true;
@@ -171,11 +188,18 @@ void XPerSim::declareOperations() {
   core::Contract set_pose = operation("set_pose", "xpersif/SetPose", "place the robot or an object",
                                       {"at(?name, ?pose)"});
   set_pose.parameters = {"?name", "?pose"};
+  set_pose.preconditions = {{"clear(?name)", "the body's new place overlaps no other body"}};
   ContractChecker<SetPose::Request> set_pose_contract(set_pose);
-  set_pose_contract.bind([](const SetPose::Request& r) {
-    return core::Bindings{{"?name", r.name},
-                          {"?pose", core::describeNumber(r.pose.position.x) + "_" + core::describeNumber(r.pose.position.y)}};
-  });
+  set_pose_contract
+      .bind([](const SetPose::Request& r) {
+        return core::Bindings{{"?name", r.name},
+                              {"?pose", core::describeNumber(r.pose.position.x) + "_" + core::describeNumber(r.pose.position.y)}};
+      })
+      .check("clear(?name)", [this](const SetPose::Request& request) -> std::string {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        const auto check = world_->checkPlacement(request.name, fromPoseMsg(request.pose), request.on_floor);
+        return check.problem == core::PhysicsWorld::PlacementCheck::Problem::Overlap ? check.why : "";
+      });
   addOperation<SetPose>(
       set_pose_contract,
       [this](const SetPose::Request& request) {
@@ -183,11 +207,20 @@ void XPerSim::declareOperations() {
         core::throwIfInvalid(checkPose("pose", request.pose));
         std::lock_guard<std::mutex> lock(world_mutex_);
         core::requireKnownName("name", request.name, world_->spec().bodyNames());
+        // Inside the arena, not under the floor (whatever else is there): malformed for this world.
+        const auto check = world_->checkPlacement(request.name, fromPoseMsg(request.pose), request.on_floor);
+        if (check.problem == core::PhysicsWorld::PlacementCheck::Problem::Invalid) throw core::ValidationError(check.why);
       },
       [this](const SetPose::Request& request, SetPose::Response& response) {
         std::lock_guard<std::mutex> lock(world_mutex_);
-        world_->setPose(request.name, fromPoseMsg(request.pose));  // checks the arena bounds
+        world_->setPose(request.name, fromPoseMsg(request.pose), request.on_floor);  // checks again
         traceLocked("set_pose " + request.name);
+        if (!halted_.empty()) {
+          halted_.clear();
+          paused_ = false;
+          wake_.notify_all();
+          lockstep_wake_.notify_all();
+        }
         publishFrameLocked();
         publishSensorsLocked();
         response.message = request.name + " placed";
@@ -457,8 +490,15 @@ bool XPerSim::physicsStepLocked() {
   last_problem_ = result.problem;
   last_problem_wall_ = ros::WallTime::now().toSec();
   ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": " << result.problem);
+  if (result.halted) {
+    // Not resolvable by putting bodies at rest: pause with the reason rather than fail the same step forever.
+    halted_ = result.problem + "; the simulator is paused until set_pose moves a body or reset";
+    paused_ = true;
+    events().publish(events().make(ComponentEvent::OPERATION, "physics", "paused", halted_));
+    return false;
+  }
   events().publish(events().make(ComponentEvent::OPERATION, "physics", "recovered", result.problem));
-  return false;
+  return true;  // resolved: the step was taken
 }
 
 void XPerSim::stepLocked() {
@@ -579,7 +619,9 @@ void XPerSim::lockstepLoop() {
         idle_time_ += tick_period_;
         ++idle_ticks_;
       } else {
-        for (int i = 0; i < steps_per_tick_; ++i) physicsStepLocked();
+        for (int i = 0; i < steps_per_tick_; ++i) {
+          if (!physicsStepLocked()) break;  // halted: the world waits, paused, with the reason
+        }
         if (trace_) {
           char line[160];
           std::snprintf(line, sizeof line, "tick %llu drives=%d v=%a w=%a", static_cast<unsigned long long>(lockstep_->tick()),
@@ -656,8 +698,12 @@ void XPerSim::fillStatus(ComponentStatus& status) {
   physics.message = std::string(toString(mode_)) + (paused_ ? ", paused" : "") + ", t=" +
                     core::describeNumber(simTimeLocked()) + " s, " + std::to_string(blow_ups_) + " blow-ups recovered" +
                     (lockstep_ ? ", tick " + std::to_string(lockstep_->tick()) + " (" + std::to_string(idle_ticks_) + " idle)" : std::string());
-  // A recent blow-up is worth a warning for a while, with what happened.
-  if (ros::WallTime::now().toSec() - last_problem_wall_ < 5.0) {
+  if (!halted_.empty()) {
+    physics.health = ComponentStatus::HEALTH_ERROR;
+    physics.message += "; " + halted_;
+    status.health = std::max(status.health, static_cast<std::uint8_t>(ComponentStatus::HEALTH_ERROR));
+  } else if (ros::WallTime::now().toSec() - last_problem_wall_ < 5.0) {
+    // A recent blow-up is worth a warning for a while, with what happened.
     physics.health = ComponentStatus::HEALTH_WARN;
     physics.message += "; last: " + last_problem_;
     if (status.health == ComponentStatus::HEALTH_OK) status.health = ComponentStatus::HEALTH_WARN;

@@ -92,6 +92,7 @@ inline std::string place(const std::string& ns, const std::string& body, double 
   call.request.pose.position.y = y;
   call.request.pose.orientation.z = std::sin(yaw / 2);
   call.request.pose.orientation.w = std::cos(yaw / 2);
+  call.request.on_floor = true;
   if (!ros::service::call(ns + "xpersim/set_pose", call)) return ns + "xpersim/set_pose did not answer";
   if (!call.response.success) return call.response.message;
   ros::Duration(0.5).sleep();

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <map>
 
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/validation.h"
@@ -126,7 +127,7 @@ TEST(PhysicsWorld, SameSeedAndCommandsGiveBitIdenticalTrajectories) {
   EXPECT_EQ(std::memcmp(a.bodyPose("khepera").data(), first.data(), sizeof(double) * 16), 0);
 }
 
-TEST(PhysicsWorld, BlowUpIsCaughtInItsStepAndTheWorldRestored) {
+TEST(PhysicsWorld, BlowUpIsUndoneAndResolvedAndTimeGoesOn) {
   PhysicsWorld world(defaultWorld());
   run(world, 0.1);
   const Eigen::Isometry3d before = world.bodyPose("green_cube");
@@ -134,16 +135,142 @@ TEST(PhysicsWorld, BlowUpIsCaughtInItsStepAndTheWorldRestored) {
   world.injectFault("green_cube");  // a NaN force
   const auto result = world.step();
   EXPECT_FALSE(result.ok);
+  EXPECT_FALSE(result.halted);
   EXPECT_NE(result.problem.find("green_cube has a non-finite"), std::string::npos) << result.problem;
+  EXPECT_NE(result.problem.find("the step was undone and green_cube put at rest at its last good pose"), std::string::npos)
+      << result.problem;
   EXPECT_EQ(world.checkHealth(), "");
-  EXPECT_TRUE(world.bodyPose("green_cube").isApprox(before));
-  EXPECT_DOUBLE_EQ(world.time(), t) << "the failed step is undone";
+  EXPECT_LT((world.bodyPose("green_cube").translation() - before.translation()).norm(), 1e-5);
+  EXPECT_LT(world.bodyLinearVelocity("green_cube").norm(), 0.01);
+  EXPECT_NEAR(world.time(), t + world.spec().physics.step, 1e-12) << "the step is taken again, resolved";
 
   world.injectFault("khepera", true);  // an absurd force: too fast
   const auto exploded = world.step();
   EXPECT_FALSE(exploded.ok);
-  EXPECT_NE(exploded.problem.find("faster than physics.max_speed"), std::string::npos) << exploded.problem;
+  EXPECT_NE(exploded.problem.find(" m/s (physics.max_speed 5"), std::string::npos) << exploded.problem;
+  EXPECT_NE(exploded.problem.find("the robot khepera put at rest"), std::string::npos) << exploded.problem;
   run(world, 0.1);  // and the world goes on
+}
+
+TEST(PhysicsWorld, ACubeDroppedFromFiveMetresFallsAndLandsWithoutABlowUp) {
+  PhysicsWorld world(defaultWorld());
+  Eigen::Isometry3d high = world.bodyPose("red_cube");
+  const Eigen::Vector3d start = high.translation();
+  high.translation().z() = 5.0;
+  world.setPose("red_cube", high);
+  // About 1 s of fall, reaching ~9.9 m/s, twice physics.max_speed: a legal state, simulated step by step.
+  double fastest = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const auto r = world.step();
+    ASSERT_TRUE(r.ok) << "step " << i << ": " << r.problem;
+    fastest = std::max(fastest, world.bodyLinearVelocity("red_cube").norm());
+  }
+  EXPECT_GT(fastest, 9.0) << "it fell freely";
+  const Eigen::Vector3d landed = world.bodyPose("red_cube").translation();
+  EXPECT_NEAR(landed.z(), 0.02, 0.002) << "it rests on the floor";
+  EXPECT_LT((landed.head<2>() - start.head<2>()).norm(), 0.05) << "near where it was dropped";
+  EXPECT_LT(world.bodyLinearVelocity("red_cube").norm(), 0.01);
+  EXPECT_NEAR(world.time(), 3.0, 1e-9);
+  // Back at rest, the bound is physics.max_speed again: an absurd speed is still a blow-up.
+  world.injectFault("red_cube", true);
+  EXPECT_FALSE(world.step().ok);
+}
+
+TEST(PhysicsWorld, BlowUpsThatDoNotStopHaltTheWorldInsteadOfRepeatingForever) {
+  // Ten blow-ups in ten consecutive steps: the world halts, at rest, and says so.
+  PhysicsWorld world(defaultWorld());
+  PhysicsWorld::StepResult r;
+  int steps = 0;
+  for (; steps < 20 && !r.halted; ++steps) {
+    world.injectFault("green_cube");
+    r = world.step();
+    EXPECT_FALSE(r.ok);
+  }
+  EXPECT_TRUE(r.halted);
+  EXPECT_EQ(steps, 10);
+  EXPECT_NE(r.problem.find("blew up in 10 steps in a row"), std::string::npos) << r.problem;
+  EXPECT_TRUE(world.step().ok) << "nothing is wrong any more: it goes on";
+
+  // A world where moving at all is a blow-up (no gravity, a tiny max_speed) and the robot is driven: at rest
+  // the motors blow it up again, so it halts at once with the reason.
+  WorldSpec spec = defaultWorld();
+  spec.physics.gravity = 0;
+  spec.physics.max_speed = 1e-6;
+  PhysicsWorld strict(spec);
+  strict.setVelocity(0.1, 0);
+  const double t = strict.time();
+  const auto halted = strict.step();
+  EXPECT_FALSE(halted.ok);
+  EXPECT_TRUE(halted.halted);
+  EXPECT_NE(halted.problem.find("it blows up even with every body at rest"), std::string::npos) << halted.problem;
+  EXPECT_DOUBLE_EQ(strict.time(), t) << "a halted step does not advance time";
+  for (const auto& name : strict.spec().bodyNames()) EXPECT_EQ(strict.bodyLinearVelocity(name).norm(), 0.0) << name;
+}
+
+TEST(PhysicsWorld, PlacementsIntoAnotherBodyOutsideTheArenaOrUnderTheFloorAreRefused) {
+  PhysicsWorld world(defaultWorld());
+  run(world, 0.05);
+  std::map<std::string, Eigen::Isometry3d> before;
+  for (const auto& name : world.spec().bodyNames()) before[name] = world.bodyPose(name);
+  const Eigen::Isometry3d blue = world.bodyPose("blue_cube");
+  using Problem = PhysicsWorld::PlacementCheck::Problem;
+
+  auto refused = [&](const std::string& body, const Eigen::Isometry3d& pose, Problem problem, const std::string& words,
+                     bool on_floor = false) {
+    const auto check = world.checkPlacement(body, pose, on_floor);
+    EXPECT_EQ(check.problem, problem) << body << ": " << check.why;
+    EXPECT_NE(check.why.find(words), std::string::npos) << check.why;
+    try {
+      world.setPose(body, pose, on_floor);
+      ADD_FAILURE() << body << " was placed";
+    } catch (const ValidationError& e) {
+      EXPECT_EQ(std::string(e.what()), check.why);
+    }
+  };
+  // Into the blue cube, half into it, into the robot; the robot into a cube.
+  refused("red_cube", blue, Problem::Overlap, "red_cube at (0.25, ");
+  refused("red_cube", blue, Problem::Overlap, "would overlap blue_cube by 40 mm");
+  Eigen::Isometry3d half = blue;
+  half.translation().x() -= 0.02;
+  refused("green_cube", half, Problem::Overlap, "would overlap blue_cube by 20 mm");
+  Eigen::Isometry3d on_robot = world.bodyPose("khepera");
+  on_robot.translation().z() = 0.03;
+  refused("yellow_cube", on_robot, Problem::Overlap, "would overlap the robot khepera");
+  refused("khepera", blue, Problem::Overlap, "the robot khepera at (0.25, ", true);
+  // Outside the walls (the centre inside, an edge outside), under the floor, too high.
+  Eigen::Isometry3d edge = blue;
+  edge.translation().x() = world.spec().arena.size_x / 2 - 0.01;
+  refused("red_cube", edge, Problem::Invalid, "outside the arena (inside its walls |x| <= 0.45, |y| <= 0.3)");
+  Eigen::Isometry3d sunk = before["red_cube"];
+  sunk.translation().z() = 0.0;
+  refused("red_cube", sunk, Problem::Invalid, "would reach 20 mm under the floor; at this orientation its origin must be at z >= 0.02");
+  Eigen::Isometry3d tilted = before["red_cube"];
+  tilted.linear() = Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  refused("red_cube", tilted, Problem::Invalid, "under the floor; at this orientation its origin must be at z >= 0.028");
+  Eigen::Isometry3d sky = before["red_cube"];
+  sky.translation().z() = 11.0;
+  refused("red_cube", sky, Problem::Invalid, "m above the floor; at most 10 m");
+  // Nothing moved, bit for bit.
+  for (const auto& [name, pose] : before) {
+    EXPECT_EQ(std::memcmp(world.bodyPose(name).data(), pose.data(), sizeof(double) * 16), 0) << name;
+  }
+
+  // Allowed: on top of the blue cube, touching a neighbour, set down on the floor whatever z says.
+  Eigen::Isometry3d on_top = blue;
+  on_top.translation().z() = 0.0601;
+  EXPECT_TRUE(world.checkPlacement("red_cube", on_top).ok()) << world.checkPlacement("red_cube", on_top).why;
+  Eigen::Isometry3d beside = blue;
+  beside.translation().y() += 0.0405;
+  EXPECT_TRUE(world.checkPlacement("red_cube", beside).ok()) << world.checkPlacement("red_cube", beside).why;
+  world.setPose("red_cube", sunk, true);
+  EXPECT_NEAR(world.bodyPose("red_cube").translation().z(), 0.0201, 1e-6);
+  Eigen::Isometry3d robot = world.bodyPose("khepera");
+  robot.translation() += Eigen::Vector3d(0, 0.1, 0.5);
+  world.setPose("khepera", robot, true);
+  EXPECT_NEAR(world.bodyPose("khepera").translation().z(), before["khepera"].translation().z(), 5e-4)
+      << "the robot set down as it starts";
+  run(world, 0.5);
+  EXPECT_EQ(world.checkHealth(), "");
 }
 
 TEST(PhysicsWorld, BadInputIsRefusedAndChangesNothing) {

@@ -4,8 +4,11 @@
  *
  * Deterministic: the same spec (and seed) and the same sequence of calls give bit-identical states,
  * also with several worlds in one process (each keeps its own solver random seed). Safe: after every
- * step every body is checked (finite, slower than physics.max_speed); a step that breaks that is undone,
- * the world is put back in its last good state, and the step reports what happened.
+ * step every body is checked: finite, and no faster than physics.max_speed plus twice what a fall from the
+ * highest body's height gives (so a body dropped from high up falls, legally). A step that breaks that is a
+ * blow-up: it is undone, then resolved (the offending body, or else every body, put at rest at its last
+ * good pose, and the step taken again), and the step reports what happened. It never fails the same way
+ * forever: if even a world at rest blows up, the step says so (halted) and the caller must pause.
  *
  * Not thread-safe: one thread at a time (the simulator node serializes access).
  */
@@ -32,10 +35,11 @@ class PhysicsWorld {
   PhysicsWorld& operator=(const PhysicsWorld&) = delete;
 
   struct StepResult {
-    bool ok = true;
-    std::string problem;  ///< what blew up, when !ok (the world was restored to its last good state)
+    bool ok = true;        ///< false after a blow-up (then problem says what and how it was resolved)
+    bool halted = false;   ///< the blow-up could not be resolved: time did not advance; the world is at rest
+    std::string problem;   ///< one sentence, when !ok
   };
-  /// Advance one physics step (spec().physics.step seconds).
+  /// Advance one physics step (spec().physics.step seconds); a resolved blow-up still advances time.
   StepResult step();
   /// Back to the initial state of the spec, with the initial seed.
   void reset();
@@ -44,9 +48,23 @@ class PhysicsWorld {
   void setWheelSpeeds(double left, double right);
   /// Forward speed (m/s) and turn rate (rad/s), converted to wheel speeds. @throws ValidationError
   void setVelocity(double linear, double angular);
-  /// Place the robot (its root link) or an object; velocities become zero. @throws ValidationError
-  /// (unknown name, non-finite or non-unit pose, or a place outside the arena)
-  void setPose(const std::string& body, const Eigen::Isometry3d& world_from_body);
+  /// Whether a body may be placed at a pose, and if not, one sentence naming it and why.
+  struct PlacementCheck {
+    enum class Problem { None, Invalid, Overlap };
+    Problem problem = Problem::None;  ///< Invalid: malformed or out of bounds whatever the scene; Overlap: occupied now
+    std::string why;
+    bool ok() const { return problem == Problem::None; }
+  };
+  /// Checks a placement without changing anything: a known name, a finite pose with a unit quaternion, the
+  /// body's geometry inside the arena's walls (1 mm tolerance), not under the floor (1 mm), its lowest point at
+  /// most 10 m up, and overlapping no other body (the robot's links, the objects) by more than 1 mm. Above the
+  /// floor is allowed: the body falls. With @p on_floor, z is ignored and the body is set down on the floor.
+  /// @param placed if given, receives the pose the body would take (z set when on_floor)
+  PlacementCheck checkPlacement(const std::string& body, const Eigen::Isometry3d& world_from_body, bool on_floor = false,
+                                Eigen::Isometry3d* placed = nullptr) const;
+  /// Place the robot (its root link, the other links moving rigidly with it) or an object, at rest.
+  /// @throws ValidationError with checkPlacement's sentence when the placement is refused
+  void setPose(const std::string& body, const Eigen::Isometry3d& world_from_body, bool on_floor = false);
 
   double time() const;
   std::uint64_t stepCount() const;

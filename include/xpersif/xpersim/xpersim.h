@@ -67,7 +67,8 @@ class XPerSim : public Component {
   void publishFrameLocked();
   void publishSensorsLocked();
   void publishDescriptionLocked();
-  /// Physics steps only (no publishing); false after a blow-up (recovered and reported).
+  /// Physics steps only (no publishing); false when the physics halted (a blow-up that putting bodies at rest did
+  /// not resolve: the simulator is paused, with the reason on ~status and ~events); a resolved blow-up is true.
   bool physicsStepLocked();
   /// Simulated time: the physics' own, plus the idle ticks' (lockstep). Call with world_mutex_ held.
   double simTimeLocked() const { return world_->time() + idle_time_; }
@@ -92,6 +93,7 @@ class XPerSim : public Component {
   std::string last_problem_;
   double last_problem_wall_ = -1e9;
   std::uint64_t blow_ups_ = 0;
+  std::string halted_;  ///< why the physics halted (a blow-up that putting bodies at rest did not resolve), or ""
   // Lockstep mode; guarded by world_mutex_. lockstep_wake_ wakes the coordinator and the step operation.
   std::unique_ptr<core::LockstepCoordinator> lockstep_;
   std::unique_ptr<std::ofstream> trace_;

@@ -1,18 +1,22 @@
-// xpersif_export: XPERSIF traces (bags) -> CSV tables. Schema and exit codes: doc/traces.md.
+// xpersif_export: XPERSIF traces (bags) -> CSV tables. Schema: doc/traces.md; exit codes as every tool of the
+// package (core/command_line.h, README "Exit codes").
+#include <filesystem>
 #include <iostream>
 #include <regex>
 
+#include "xpersif/core/command_line.h"
 #include "xpersif/traces/bag_tools.h"
 
 namespace {
-constexpr int kOk = 0, kBadBag = 1, kUsage = 2, kOutput = 3;
+using namespace xpersif::core;
+constexpr int kOk = kExitOk, kBadBag = kExitBadInput, kUsage = kExitUsage, kOutput = kExitOutput;
 
 int usage(const std::string& error) {
   if (!error.empty()) std::cerr << "xpersif_export: " << error << "\n";
   std::cerr << "usage: xpersif_export [-o OUT_DIR] [--features] [--no-poses] [--frames REGEX] [--pose-period S]\n"
                "                      [--experiments-topic T] BAG_OR_RUN_DIR...\n"
                "writes OUT_DIR/experiments.csv, poses.csv (and features.csv); see doc/traces.md\n"
-               "exit: 0 written, 1 a bag is unreadable (the message names it), 2 usage, 3 output not writable\n";
+               "exit: 0 written, 2 usage, 3 a bag is missing or unreadable (the message names it), 4 output not writable\n";
   return kUsage;
 }
 }  // namespace
@@ -23,7 +27,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(std::string(name) + " needs a value");
+      if (i + 1 >= argc) throw UsageError(std::string(name) + " needs a value");
       return argv[++i];
     };
     try {
@@ -31,13 +35,13 @@ int main(int argc, char** argv) {
       else if (a == "--features") options.features = true;
       else if (a == "--no-poses") options.poses = false;
       else if (a == "--frames") options.frames_regex = value("--frames");
-      else if (a == "--pose-period") options.pose_period = std::stod(value("--pose-period"));
+      else if (a == "--pose-period") options.pose_period = parseRealNumber("--pose-period", value("--pose-period"), 0, 1e9);
       else if (a == "--experiments-topic") options.experiments_topic = value("--experiments-topic");
       else if (a == "-h" || a == "--help") return usage(""), kOk;
       else if (!a.empty() && a[0] == '-') return usage("unknown option " + a);
       else inputs.push_back(a);
     } catch (const std::exception& e) {
-      return usage(std::string("bad option ") + a + ": " + e.what());
+      return usage(e.what());
     }
   }
   if (inputs.empty()) return usage("give at least one bag or run directory");
@@ -45,6 +49,19 @@ int main(int argc, char** argv) {
     std::regex check(options.frames_regex);
   } catch (const std::regex_error& e) {
     return usage("--frames '" + options.frames_regex + "' is not a regular expression: " + e.what());
+  }
+  for (const auto& input : inputs) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(input, ec)) continue;
+    const std::string why = checkReadableFile("bag", input);
+    if (!why.empty()) {
+      std::cerr << "xpersif_export: " << why << "\n";
+      return kBadBag;
+    }
+  }
+  if (const std::string why = checkWritableDirectory("output directory", options.out_dir); !why.empty()) {
+    std::cerr << "xpersif_export: " << why << "\n";
+    return kOutput;
   }
   try {
     const auto files = xpersif::traces::bagFiles(inputs);
@@ -62,6 +79,6 @@ int main(int argc, char** argv) {
     return kOutput;
   } catch (const std::exception& e) {  // anything else a library throws: still a sentence, never a crash
     std::cerr << "xpersif_export: unexpected error: " << e.what() << "\n";
-    return kBadBag;
+    return kExitFailed;
   }
 }
