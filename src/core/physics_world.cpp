@@ -336,9 +336,7 @@ struct PhysicsWorld::Impl {
       ++s.episodes;
       const ObjectSpec& o = spec.objects[i];
       if (!o.redrawn()) continue;
-      const std::uint64_t h = streamSeed(redraw_seed, i, static_cast<std::uint64_t>(s.episodes), StreamPurpose::Friction);
-      const double u = static_cast<double>(h >> 11) * 0x1.0p-53;  // uniform in [0, 1), the same on every platform
-      s.friction_x = s.friction_y = o.friction_redraw_min * std::pow(o.friction_redraw_max / o.friction_redraw_min, u);
+      s.friction_x = s.friction_y = redrawnFriction(o, redraw_seed, i, s.episodes);
     }
   }
 
@@ -540,6 +538,12 @@ struct PhysicsWorld::Impl {
     return dJointGetHingeAngleRate(wheel);
   }
 };
+
+double redrawnFriction(const ObjectSpec& object, std::uint64_t seed, std::size_t object_index, int episode) {
+  const std::uint64_t h = streamSeed(seed, object_index, static_cast<std::uint64_t>(episode), StreamPurpose::Friction);
+  const double u = static_cast<double>(h >> 11) * 0x1.0p-53;  // uniform in [0, 1), the same on every platform
+  return object.friction_redraw_min * std::pow(object.friction_redraw_max / object.friction_redraw_min, u);
+}
 
 PhysicsWorld::PhysicsWorld(WorldSpec spec)
     : spec_(std::move(spec)), redraw_seed_(spec_.physics.seed), impl_(std::make_unique<Impl>(spec_)) {

@@ -364,6 +364,9 @@ TEST(PhysicsWorld, FrictionIsRedrawnPerContactEpisodeFromTheSeed) {
   EXPECT_GT(*std::max_element(first.begin(), first.end()) / *std::min_element(first.begin(), first.end()), 1.5)
       << "the draws differ from push to push";
   EXPECT_EQ(draws(b, 5), first) << "the same seed gives the same draws";
+  for (std::size_t k = 0; k < first.size(); ++k) {
+    EXPECT_DOUBLE_EQ(first[k], redrawnFriction(spec.objects[0], 1, 0, static_cast<int>(k) + 1)) << "draw " << k + 1;
+  }
   EXPECT_DOUBLE_EQ(a.objectFriction("plain"), 0.4) << "an object without friction_redraw keeps its friction";
   EXPECT_EQ(a.contactEpisodes("plain"), 0);
 

@@ -23,6 +23,12 @@
 
 namespace xpersif::core {
 
+/// The friction object @p object_index (@p object, the world's objects[object_index]) gets for its contact
+/// episode @p episode (1, 2, ...) when its friction is redrawn (ObjectSpec::redrawn()): log-uniform in
+/// [friction_redraw_min, friction_redraw_max] from streamSeed(@p seed, object_index, episode, Friction). A pure
+/// function of its arguments, so the same seed gives the same draws whatever else happened.
+double redrawnFriction(const ObjectSpec& object, std::uint64_t seed, std::size_t object_index, int episode);
+
 class PhysicsWorld {
  public:
   /// @throws WorldError when the spec cannot be simulated
