@@ -771,7 +771,9 @@ TEST(FeatureExtractor, EveryShippedWorldsObjectsAreFoundFromAbove) {
       const ObjectDetection& o = d.objects.at(name);
       const Eigen::Isometry3d& truth = current.at(name);
       EXPECT_LT((o.position.head<2>() - truth.translation().head<2>()).norm(), 0.004);
-      if (o.yaw_known) EXPECT_LT(yawError(o.yaw, yawOf(truth), o.yaw_period), 3 * kDeg);
+      if (o.yaw_known) {
+        EXPECT_LT(yawError(o.yaw, yawOf(truth), o.yaw_period), 3 * kDeg);
+      }
       EXPECT_GT(o.confidence, 0.7);
     }
   }
