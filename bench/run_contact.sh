@@ -11,7 +11,7 @@ bench="$build/devel/lib/xpersif/contact_bench"
 [ -x "$bench" ] || cmake --build "$build" --target contact_bench
 mkdir -p "$out"
 {
-  echo "# $(date -u +%FT%TZ) $(git -C "$here" describe --always --dirty --tags 2>/dev/null || true)"
+  echo "# $(date -u +%FT%TZ) $(git -C "$here" describe --always --dirty --tags 2>/dev/null || true)" >&2
   for world in default structured; do
     for model in pyramid coulomb; do
       "$bench" "$here/worlds/$world.yaml" --label "$world/$model" --friction-model "$model" --offsets 9 \
