@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 
+#include "xpersif/core/random_stream.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif::core {
@@ -61,10 +62,28 @@ struct BodyState {
   dQuaternion orientation;
 };
 
-// Per-geom contact data: friction coefficient and whether it belongs to the robot.
+// Per-geom contact data: friction coefficient, whether it belongs to the robot, and the object it belongs to
+// (an index into Impl::object_states, -1 for none) whose frictions then hold.
 struct GeomInfo {
   double friction = 1.0;
   bool robot = false;
+  bool floor = false;
+  int object = -1;
+};
+
+// An object's frictions now: the file's, or the last draw of friction_redraw; and its contact episodes.
+struct ObjectState {
+  double friction_x = 0.5, friction_y = 0.5;
+  int episodes = 0;
+  double last_touch = -1;  // simulated time of the last step the robot touched it; < 0: never
+  bool touched = false;    // during the current step
+};
+
+// A contact found by the collision pass, turned into a joint once every touch of the step is known.
+struct PendingContact {
+  dContact contact;
+  dBodyID a, b;
+  const GeomInfo *ia, *ib;
 };
 
 constexpr int kMaxContacts = 8;
@@ -72,6 +91,7 @@ constexpr double kPlacementTolerance = 0.001;  ///< m: how far a placed body may
 constexpr double kRestClearance = 0.0001;      ///< m: a body set down on the floor hovers this much above it
 constexpr double kMaxPlacementHeight = 10.0;   ///< m: the highest a body may be placed (its lowest point)
 constexpr int kMaxBlowUpsInARow = 10;          ///< resolved blow-ups in consecutive steps before the world halts
+constexpr double kSlipSpeed = 1e-3;  ///< m/s: a contact slipping slower than this is taken to be at rest
 constexpr double kBallSpinDamping = 3.0;  ///< 1/s: how fast a ball's spin decays (ODE has no rolling resistance)
 
 }  // namespace
@@ -87,7 +107,10 @@ struct PhysicsWorld::Impl {
   std::map<std::string, Eigen::Isometry3d> body_from_link;  // link pose in that body's frame
   std::map<std::string, dJointID> link_joint;        // revolute links -> hinge joint
   std::vector<std::pair<std::string, dBodyID>> objects;
+  std::vector<ObjectState> object_states;  // parallel to objects
   std::vector<std::unique_ptr<GeomInfo>> geom_infos;
+  std::vector<PendingContact> pending;
+  std::uint64_t redraw_seed = 1;
 
   dJointID left_wheel = nullptr, right_wheel = nullptr;
   double left_command = 0, right_command = 0;  // rim speeds
@@ -134,13 +157,16 @@ struct PhysicsWorld::Impl {
     body_from_link.clear();
     link_joint.clear();
     objects.clear();
+    object_states.clear();
     geom_infos.clear();
+    pending.clear();
     ir_mounts.clear();
   }
 
-  dGeomID addGeom(const Shape& shape, dBodyID body, const Eigen::Isometry3d& offset, double friction, bool robot) {
+  dGeomID addGeom(const Shape& shape, dBodyID body, const Eigen::Isometry3d& offset, double friction, bool robot,
+                  int object = -1) {
     dGeomID geom = createGeom(space, shape);
-    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{friction, robot}));
+    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{friction, robot, false, object}));
     dGeomSetData(geom, geom_infos.back().get());
     if (body) {
       dGeomSetBody(geom, body);
@@ -175,7 +201,7 @@ struct PhysicsWorld::Impl {
   void buildArena() {
     const ArenaSpec& a = spec.arena;
     dGeomID floor = dCreatePlane(space, 0, 0, 1, 0);
-    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{1.0, false}));
+    geom_infos.push_back(std::make_unique<GeomInfo>(GeomInfo{1.0, false, true, -1}));
     dGeomSetData(floor, geom_infos.back().get());
     for (const Visual& wall : a.walls()) addGeom(wall.shape, nullptr, wall.offset, 0.5, false);
   }
@@ -274,7 +300,12 @@ struct PhysicsWorld::Impl {
     Eigen::Isometry3d pose = object.pose;
     pose.translation().z() += -lowestPoint(object.shape, pose) + 0.0001;  // rest on the floor
     setPoseOf(body, pose);
-    addGeom(object.shape, body, Eigen::Isometry3d::Identity(), object.friction, false);
+    ObjectState state;
+    state.friction_x = object.friction;
+    state.friction_y = object.friction_y;
+    object_states.push_back(state);
+    addGeom(object.shape, body, Eigen::Isometry3d::Identity(), object.friction, false,
+            static_cast<int>(object_states.size()) - 1);
     if (object.shape.type == Shape::Type::Sphere) {
       // ODE has no rolling resistance: a ball would roll forever. Damp its spin at kBallSpinDamping per
       // second (whatever the step), down to standstill, so that it comes to rest like a ball on a mat.
@@ -294,15 +325,128 @@ struct PhysicsWorld::Impl {
     if (ia && ib && ia->robot && ib->robot) return;  // the robot does not collide with itself
     dContact contact[kMaxContacts];
     const int n = dCollide(a, b, kMaxContacts, &contact[0].geom, sizeof(dContact));
-    const double mu = std::sqrt((ia ? ia->friction : 1.0) * (ib ? ib->friction : 1.0));
-    for (int i = 0; i < n; ++i) {
-      contact[i].surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
-      contact[i].surface.mu = mu;
-      contact[i].surface.soft_erp = 0.4;
-      contact[i].surface.soft_cfm = 1e-5;
-      dJointID j = dJointCreateContact(self->world, self->contacts, &contact[i]);
-      dJointAttach(j, ba, bb);
+    if (n > 0 && ia && ib && (ia->robot || ib->robot)) {
+      const GeomInfo* other = ia->robot ? ib : ia;
+      if (other->object >= 0) self->object_states[other->object].touched = true;
     }
+    for (int i = 0; i < n; ++i) self->pending.push_back({contact[i], ba, bb, ia, ib});
+  }
+
+  /// An object's friction against anything but the floor: one number for its two axes.
+  double isotropicFriction(const GeomInfo* info) const {
+    if (!info) return 1.0;
+    if (info->object < 0) return info->friction;
+    const ObjectState& s = object_states[info->object];
+    return s.friction_x == s.friction_y ? s.friction_x : std::sqrt(s.friction_x * s.friction_y);
+  }
+
+  /// A touch of the robot after physics.contact_episode_gap without one starts an episode: a redrawn object
+  /// gets its friction for it from (redraw seed, object, episode), whatever happened before.
+  void updateContactEpisodes() {
+    for (std::size_t i = 0; i < object_states.size(); ++i) {
+      ObjectState& s = object_states[i];
+      if (!s.touched) continue;
+      s.touched = false;
+      const bool new_episode = s.last_touch < 0 || time - s.last_touch > spec.physics.contact_episode_gap;
+      s.last_touch = time;
+      if (!new_episode) continue;
+      ++s.episodes;
+      const ObjectSpec& o = spec.objects[i];
+      if (!o.redrawn()) continue;
+      s.friction_x = s.friction_y = redrawnFriction(o, redraw_seed, i, s.episodes);
+    }
+  }
+
+  /// The contact's slip: the velocity of body a relative to body b at the contact point, in the contact plane.
+  static Eigen::Vector3d slipOf(const PendingContact& p, const Eigen::Vector3d& n) {
+    const dContactGeom& g = p.contact.geom;
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    dVector3 pv;
+    if (p.a) {
+      dBodyGetPointVel(p.a, g.pos[0], g.pos[1], g.pos[2], pv);
+      v += Eigen::Vector3d(pv[0], pv[1], pv[2]);
+    }
+    if (p.b) {
+      dBodyGetPointVel(p.b, g.pos[0], g.pos[1], g.pos[2], pv);
+      v -= Eigen::Vector3d(pv[0], pv[1], pv[2]);
+    }
+    return v - v.dot(n) * n;
+  }
+
+  /// One friction axis (unit, in the contact plane) with coefficient @p mu and none across it.
+  static void frictionAlong(PendingContact& p, const Eigen::Vector3d& d, double mu) {
+    dSurfaceParameters& surface = p.contact.surface;
+    surface.mode |= dContactMu2 | dContactFDir1;
+    surface.mu = mu;
+    surface.mu2 = 0;
+    p.contact.fdir1[0] = d.x();
+    p.contact.fdir1[1] = d.y();
+    p.contact.fdir1[2] = d.z();
+  }
+
+  /**
+   * Friction at one of the step's contacts.
+   *
+   * ODE's friction is a pyramid: two axes in the contact plane, each holding up to mu times the normal force on
+   * its own. A contact sliding along one axis can then still hold a force across it, which no real contact does:
+   * a box pushed off its centre, sliding along the push, resists turning with friction across the slide and
+   * turns a tenth of what a real one does (bench/contact.md). With physics.friction_model coulomb, at every
+   * contact of an object that slips, the friction is what Coulomb's law gives: mu times the normal force against
+   * the slip, nothing across it (one axis along the slip, the other free); a contact at rest keeps the pyramid,
+   * which holds it. An object whose friction differs along its x and y axes (runners, grain) has an elliptic
+   * limit, (Fx/mu_x)^2 + (Fy/mu_y)^2 <= N^2 in its own axes; sliding, the force is the point of the ellipse that
+   * opposes the slip most (maximum dissipation), F ~ -(mu_x^2 vx, mu_y^2 vy); at rest, a pyramid along its axes.
+   * The robot's own contacts with the floor (wheels, sliders) always keep ODE's pyramid.
+   */
+  void setFriction(PendingContact& p) const {
+    dSurfaceParameters& surface = p.contact.surface;
+    surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
+    surface.soft_erp = 0.4;
+    surface.soft_cfm = 1e-5;
+    surface.mu = std::sqrt(isotropicFriction(p.ia) * isotropicFriction(p.ib));
+    const bool object = (p.ia && p.ia->object >= 0) || (p.ib && p.ib->object >= 0);
+    if (!object) return;
+    const bool coulomb = spec.physics.friction_model == PhysicsSpec::FrictionModel::Coulomb;
+    const Eigen::Vector3d n(p.contact.geom.normal[0], p.contact.geom.normal[1], p.contact.geom.normal[2]);
+    const Eigen::Vector3d slip = coulomb ? slipOf(p, n) : Eigen::Vector3d::Zero();
+    const bool sliding = slip.norm() >= kSlipSpeed;
+
+    // An anisotropic object on the floor: its x axis in the contact plane (unless it stands on its end).
+    const GeomInfo* floor = p.ia && p.ia->floor ? p.ia : p.ib && p.ib->floor ? p.ib : nullptr;
+    const GeomInfo* other = floor == p.ia ? p.ib : p.ia;
+    if (floor && other && other->object >= 0) {
+      const ObjectState& s = object_states[other->object];
+      if (s.friction_x != s.friction_y) {
+        const dReal* r = dBodyGetRotation(floor == p.ia ? p.b : p.a);  // row-major 3x4
+        const Eigen::Vector3d x_axis(r[0], r[4], r[8]);
+        const Eigen::Vector3d along = x_axis - x_axis.dot(n) * n;
+        if (along.norm() > 0.1) {
+          const Eigen::Vector3d ex = along.normalized(), ey = n.cross(ex);
+          const double mx = std::sqrt(s.friction_x * floor->friction), my = std::sqrt(s.friction_y * floor->friction);
+          if (!sliding) {
+            frictionAlong(p, ex, mx);
+            surface.mu2 = my;
+            return;
+          }
+          const double vx = slip.dot(ex), vy = slip.dot(ey);
+          const Eigen::Vector3d force = mx * mx * vx * ex + my * my * vy * ey;
+          const double mu = force.norm() / std::hypot(mx * vx, my * vy);
+          frictionAlong(p, force.normalized(), mu);
+          return;
+        }
+      }
+    }
+    if (sliding) frictionAlong(p, slip.normalized(), surface.mu);
+  }
+
+  /// The step's contacts as joints, with the frictions of this step (after any redraw).
+  void createContactJoints() {
+    for (PendingContact& p : pending) {
+      setFriction(p);
+      dJointID j = dJointCreateContact(world, contacts, &p.contact);
+      dJointAttach(j, p.a, p.b);
+    }
+    pending.clear();
   }
 
   void forEachBody(const std::function<void(dBodyID)>& f) const {
@@ -462,6 +606,8 @@ struct PhysicsWorld::Impl {
     Trouble trouble = pendingForceProblem();
     if (!trouble.none()) return trouble;
     dSpaceCollide(space, this, &Impl::nearCallback);
+    updateContactEpisodes();
+    createContactJoints();
     // ODE's solver shuffles constraints with a process-wide generator; keep a private seed per world.
     dRandSetSeed(random_seed);
     dWorldQuickStep(world, dt);
@@ -488,7 +634,15 @@ struct PhysicsWorld::Impl {
   }
 };
 
-PhysicsWorld::PhysicsWorld(WorldSpec spec) : spec_(std::move(spec)), impl_(std::make_unique<Impl>(spec_)) {
+double redrawnFriction(const ObjectSpec& object, std::uint64_t seed, std::size_t object_index, int episode) {
+  const std::uint64_t h = streamSeed(seed, object_index, static_cast<std::uint64_t>(episode), StreamPurpose::Friction);
+  const double u = static_cast<double>(h >> 11) * 0x1.0p-53;  // uniform in [0, 1), the same on every platform
+  return object.friction_redraw_min * std::pow(object.friction_redraw_max / object.friction_redraw_min, u);
+}
+
+PhysicsWorld::PhysicsWorld(WorldSpec spec)
+    : spec_(std::move(spec)), redraw_seed_(spec_.physics.seed), impl_(std::make_unique<Impl>(spec_)) {
+  impl_->redraw_seed = redraw_seed_;
   impl_->build();
   scene_ = buildScene();
 }
@@ -498,7 +652,31 @@ PhysicsWorld::~PhysicsWorld() = default;
 void PhysicsWorld::reset() {
   impl_->destroy();
   impl_ = std::make_unique<Impl>(spec_);
+  impl_->redraw_seed = redraw_seed_;
   impl_->build();
+}
+
+void PhysicsWorld::setRedrawSeed(std::uint64_t seed) {
+  redraw_seed_ = seed;
+  impl_->redraw_seed = seed;
+}
+
+double PhysicsWorld::objectFriction(const std::string& object, double* along_y) const {
+  requireKnownName("object", object, scene_.objects);
+  for (std::size_t i = 0; i < impl_->objects.size(); ++i) {
+    if (impl_->objects[i].first != object) continue;
+    if (along_y) *along_y = impl_->object_states[i].friction_y;
+    return impl_->object_states[i].friction_x;
+  }
+  return 0;
+}
+
+int PhysicsWorld::contactEpisodes(const std::string& object) const {
+  requireKnownName("object", object, scene_.objects);
+  for (std::size_t i = 0; i < impl_->objects.size(); ++i) {
+    if (impl_->objects[i].first == object) return impl_->object_states[i].episodes;
+  }
+  return 0;
 }
 
 PhysicsWorld::StepResult PhysicsWorld::step() {

@@ -482,13 +482,19 @@ void checkPlacement(const WorldSpec& world, const YAML::Node& objects) {
 // ---- The sections of a world file --------------------------------------------------------------------
 
 void parsePhysics(const YAML::Node& p, const std::string& w, PhysicsSpec& physics) {
-  rejectUnknownKeys(p, {"step", "gravity", "seed", "iterations", "max_speed"}, w);
+  rejectUnknownKeys(p, {"step", "gravity", "seed", "iterations", "max_speed", "contact_episode_gap", "friction_model"}, w);
   physics.step = positive(p, "step", physics.step, w);
   if (physics.step > 0.05) fail(w + ".step", p["step"], "is " + shown(p["step"]) + "; it must be at most 0.05 s for stable contacts");
   physics.gravity = number(p, "gravity", physics.gravity, w);
   physics.seed = static_cast<unsigned long>(whole(p, "seed", static_cast<long long>(physics.seed), 0, 4294967295LL, w));
   physics.iterations = static_cast<int>(whole(p, "iterations", physics.iterations, 1, 1000, w));
   physics.max_speed = positive(p, "max_speed", physics.max_speed, w);
+  physics.contact_episode_gap = positive(p, "contact_episode_gap", physics.contact_episode_gap, w);
+  const std::string model = text(p, "friction_model", "coulomb", w);
+  if (model != "coulomb" && model != "pyramid") {
+    fail(w + ".friction_model", p["friction_model"], "is '" + model + "'; it must be coulomb or pyramid");
+  }
+  physics.friction_model = model == "coulomb" ? PhysicsSpec::FrictionModel::Coulomb : PhysicsSpec::FrictionModel::Pyramid;
 }
 
 void parseArena(const YAML::Node& a, const std::string& w, ArenaSpec& arena) {
@@ -547,6 +553,38 @@ Eigen::Vector3d boxSize(const YAML::Node& o, const std::string& w) {
   return Eigen::Vector3d::Constant(asPositive(size, w + ".size"));
 }
 
+/// `friction`: one number, or [along x, along y] in the object's frame; `friction_redraw`: [min, max].
+void parseFriction(const YAML::Node& o, const std::string& w, ObjectSpec& object) {
+  const YAML::Node f = o["friction"];
+  if (f && f.IsSequence()) {
+    if (f.size() != 2) {
+      fail(w + ".friction", f, "is a list of " + std::to_string(f.size()) +
+                                   "; it must be one number or [along x, along y] in the object's frame");
+    }
+    object.friction = asPositive(f[0], w + ".friction[0]");
+    object.friction_y = asPositive(f[1], w + ".friction[1]");
+    if (object.shape.type == Shape::Type::Sphere && object.anisotropic()) {
+      fail(w + ".friction", f, "differs along x and y on a sphere, which rolls and has no fixed axes on the floor; give one number");
+    }
+  } else {
+    object.friction = object.friction_y = positive(o, "friction", object.friction, w);
+  }
+  const YAML::Node r = o["friction_redraw"];
+  if (!r) return;
+  const std::string field = w + ".friction_redraw";
+  if (!r.IsSequence() || r.size() != 2) fail(field, r, "is " + shown(r) + "; it must be [min, max], the range the friction is drawn from");
+  object.friction_redraw_min = asPositive(r[0], field + "[0]");
+  object.friction_redraw_max = asPositive(r[1], field + "[1]");
+  if (object.friction_redraw_min > object.friction_redraw_max) {
+    fail(field, r, "is [" + metres(object.friction_redraw_min) + ", " + metres(object.friction_redraw_max) +
+                       "]; its min must not exceed its max");
+  }
+  if (object.anisotropic()) {
+    fail(field, r, "is given with a friction that differs along x and y; a redrawn friction is one number for "
+                   "every direction, so give friction as one number");
+  }
+}
+
 ObjectSpec parseObject(const YAML::Node& o, const std::string& w, std::set<std::string>& names) {
   ObjectSpec object;
   if (!o.IsMap()) fail(w, o, "is " + shown(o) + "; it must be a mapping");
@@ -555,7 +593,7 @@ ObjectSpec parseObject(const YAML::Node& o, const std::string& w, std::set<std::
   if (!names.insert(object.name).second) {
     fail(w + ".name", o["name"], "'" + object.name + "' is already taken (by the robot, one of its links or another object)");
   }
-  const std::set<std::string> common{"name", "shape", "mass", "friction", "color", "pose"};
+  const std::set<std::string> common{"name", "shape", "mass", "friction", "friction_redraw", "color", "pose"};
   const std::string shape = text(o, "shape", "box", w);
   std::set<std::string> known = common;
   if (shape == "box") {
@@ -573,7 +611,7 @@ ObjectSpec parseObject(const YAML::Node& o, const std::string& w, std::set<std::
     fail(w + ".shape", o["shape"], "is '" + shape + "'; it must be box, cylinder or sphere");
   }
   object.mass = positive(o, "mass", object.mass, w);
-  object.friction = positive(o, "friction", object.friction, w);
+  parseFriction(o, w, object);
   object.color = color(o, "color", object.color, w);
   object.pose = pose(o, w);
   return object;

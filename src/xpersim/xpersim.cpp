@@ -279,8 +279,14 @@ void XPerSim::onConfigure() {
   core::requireInRange("~tf_rate", tf_rate, 1.0, 10000.0);
   core::requireInRange("~sensor_rate", sensor_rate, 0.1, 1000.0);
   core::requireInRange("~max_frame_rate", max_frame_rate, 1.0, 100000.0);
+  // The run's seed, for what the simulator draws at random (objects' frictions redrawn per contact episode);
+  // without it, the world file's physics.seed.
+  int seed = -1;
+  const bool has_seed = pnh.getParam("seed", seed);
+  if (has_seed) core::requireInRange("~seed", seed, 0, 2147483647);
   // Built completely before it replaces anything: a bad world file leaves the old world running.
   auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(world_file));
+  if (has_seed) world->setRedrawSeed(static_cast<std::uint64_t>(seed));
 
   stopThread();
   std::lock_guard<std::mutex> lock(world_mutex_);

@@ -360,7 +360,9 @@ TEST(Push, CentredPushMovesTheRedCubeAlongThePushDirection) {
   const auto [along, across] = alongAcross(o);
   EXPECT_GT(along, 0.05) << "most of the 8 cm push reaches the cube";
   EXPECT_LT(std::fabs(across), 0.25 * along) << "most of the displacement is along the push direction";
-  EXPECT_LT(std::fabs(normalizeAngle(o.after.yaw - o.before.yaw)), 0.1 * kPi / 180.0);
+  // Pushing through the centre is balanced but not stable (friction opposes the slip, as in a real push): a
+  // slight imbalance turns the cube a little.
+  EXPECT_LT(std::fabs(normalizeAngle(o.after.yaw - o.before.yaw)), 3 * kPi / 180.0);
   for (const auto& [name, before] : o.others_before) {
     const Pose2D now = truth(world, name);
     EXPECT_LT(std::hypot(now.x - before.x, now.y - before.y), 0.001) << name << " was not touched";
@@ -383,24 +385,27 @@ TEST(Push, TheBlueCubeDoesNotMove) {
 }
 
 TEST(Push, OffCentrePushesRotateTheCubeTheWayTheOffsetSays) {
-  // Contact left of the centre (positive offset) turns the cube clockwise (negative yaw), and vice versa.
-  // The turn is small in this simulator (ODE's pyramid friction lets the floor resist the torque); a
-  // centred push turns the red cube by less than 0.1 deg (see the centred push above).
+  // Contact left of the centre (positive offset) turns the cube clockwise (negative yaw), and vice versa, by tens
+  // of degrees as a real cube does (friction opposes the slip at every sliding contact, physics.friction_model
+  // coulomb; bench/contact.md): the farther off the centre, the more, and the more it slides off sideways.
+  std::map<double, double> turn;
   for (double offset : {0.02, -0.02, 0.01}) {
     PhysicsWorld world(defaultWorld());
     const PushOutcome o = runPush(world, {"red_cube", "-x", offset, 0.12});
     ASSERT_TRUE(o.last.done) << offset << ": " << o.last.reason;
     const double turned = normalizeAngle(o.after.yaw - o.before.yaw);
     const auto [along, across] = alongAcross(o);
-    if (std::fabs(offset) >= 0.02) {
-      EXPECT_GT(std::fabs(turned), 1.5 * kPi / 180.0) << "offset " << offset;
-    }
+    turn[offset] = turned;
+    EXPECT_GT(std::fabs(turned), (std::fabs(offset) >= 0.02 ? 40 : 15) * kPi / 180.0) << "offset " << offset;
     EXPECT_EQ(turned < 0, offset > 0) << "offset " << offset << " turned " << turned;
-    EXPECT_GT(along, 0.09);
+    EXPECT_GT(along, 0.06);
+    EXPECT_EQ(across < 0, offset > 0) << "a cube pushed left of its centre slides off to the right";
     std::printf("[ measured ] red_cube pushed 120 mm with offset %+.0f mm: turned %+.2f deg, moved %.1f mm along, "
                 "%.1f mm across, %.1f s\n",
                 offset * 1000, turned * 180 / kPi, along * 1000, across * 1000, o.seconds);
   }
+  EXPECT_GT(std::fabs(turn[0.02]), std::fabs(turn[0.01])) << "a larger offset turns it more";
+  EXPECT_NEAR(turn[0.02], -turn[-0.02], 10 * kPi / 180.0) << "the turn is symmetric in the offset";
 }
 
 TEST(Push, TheSlipperyYellowCubeCanBePushed) {

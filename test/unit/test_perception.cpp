@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -740,4 +741,41 @@ TEST(FeatureExtractor, GreyObjects) {
   expectShapesAt(d, current, {"grey_block", "red_cube", "blue_can", "green_ball"}, 0.003);
   EXPECT_LT(yawError(d.objects.at("grey_block").yaw, 0.3, M_PI / 2), 3 * kDeg);
   EXPECT_TRUE(d.robot.found);
+}
+
+// Every shipped world, as its file places things: the overhead camera finds every object where it stands (and
+// the turn of those whose turn can be seen), and the robot; so a world's colours and shapes tell its objects apart.
+TEST(FeatureExtractor, EveryShippedWorldsObjectsAreFoundFromAbove) {
+  int worlds = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
+    if (entry.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(entry.path().filename().string());
+    ++worlds;
+    const PhysicsWorld world(loadWorldFile(entry.path().string()));
+    const SceneDescription& scene = world.scene();
+    const CameraModel* camera = nullptr;
+    for (const auto& node : scene.nodes) {
+      for (const auto& c : scene.cameras) {
+        if (!camera && node.name == c.frame && node.parent == scene.world_frame) camera = &c;
+      }
+    }
+    ASSERT_NE(camera, nullptr) << "no camera hangs from the world";
+    const FrameTransforms current = world.dynamicTransforms();
+    const Frame f = render(scene, current, camera->name);
+    const Detections d = FeatureExtractor(PerceptionCatalogue::fromScene(scene), *camera).extract(f.image, f.world_from_camera);
+    EXPECT_TRUE(d.missing.empty());
+    EXPECT_TRUE(d.robot.found);
+    for (const auto& name : scene.objects) {
+      SCOPED_TRACE(name);
+      ASSERT_EQ(d.objects.count(name), 1u) << "not found";
+      const ObjectDetection& o = d.objects.at(name);
+      const Eigen::Isometry3d& truth = current.at(name);
+      EXPECT_LT((o.position.head<2>() - truth.translation().head<2>()).norm(), 0.004);
+      if (o.yaw_known) {
+        EXPECT_LT(yawError(o.yaw, yawOf(truth), o.yaw_period), 3 * kDeg);
+      }
+      EXPECT_GT(o.confidence, 0.7);
+    }
+  }
+  EXPECT_GE(worlds, 4);
 }

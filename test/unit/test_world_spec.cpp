@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "xpersif/core/world_spec.h"
@@ -289,4 +290,67 @@ TEST(BadWorld, WheelAxesNotParallel) {
 TEST(BadWorld, HeadingMarkerMustNameALink) {
   EXPECT_TRUE(says(refusal("robot: {urdf: " + kUrdf + ", heading_marker: nose}\n"), "bad.yaml",
                    {"robot.heading_marker names 'nose', which is not a link of"}));
+}
+
+// ---- friction: per axis, redrawn per contact episode; the friction model ----------------------------------
+
+TEST(WorldSpec, StructuredWorldLoadsItsFrictions) {
+  const WorldSpec w = loadWorldFile(kWorlds + "/structured.yaml");
+  EXPECT_EQ(w.physics.friction_model, PhysicsSpec::FrictionModel::Coulomb);
+  EXPECT_DOUBLE_EQ(w.physics.contact_episode_gap, 0.5);
+  std::map<std::string, const ObjectSpec*> by_name;
+  for (const auto& o : w.objects) by_name[o.name] = &o;
+  ASSERT_EQ(by_name.count("orange_bar"), 1u);
+  ASSERT_EQ(by_name.count("purple_cube"), 1u);
+  const ObjectSpec& bar = *by_name["orange_bar"];
+  EXPECT_TRUE(bar.anisotropic());
+  EXPECT_DOUBLE_EQ(bar.friction, 0.15);
+  EXPECT_DOUBLE_EQ(bar.friction_y, 0.6);
+  EXPECT_FALSE(bar.redrawn());
+  const ObjectSpec& purple = *by_name["purple_cube"];
+  EXPECT_TRUE(purple.redrawn());
+  EXPECT_FALSE(purple.anisotropic());
+  EXPECT_DOUBLE_EQ(purple.friction_redraw_min, 0.1);
+  EXPECT_DOUBLE_EQ(purple.friction_redraw_max, 2.5);
+  // Without the keys: one friction for both axes, never redrawn, Coulomb friction, half a second between episodes.
+  const WorldSpec d = loadWorldFile(kWorlds + "/default.yaml");
+  EXPECT_EQ(d.physics.friction_model, PhysicsSpec::FrictionModel::Coulomb);
+  EXPECT_DOUBLE_EQ(d.physics.contact_episode_gap, 0.5);
+  for (const auto& o : d.objects) {
+    EXPECT_FALSE(o.anisotropic()) << o.name;
+    EXPECT_FALSE(o.redrawn()) << o.name;
+    EXPECT_DOUBLE_EQ(o.friction, o.friction_y) << o.name;
+  }
+  const WorldSpec p = parseWorld(kRobot + "physics: {friction_model: pyramid, contact_episode_gap: 2}\n", kWorlds, "p.yaml");
+  EXPECT_EQ(p.physics.friction_model, PhysicsSpec::FrictionModel::Pyramid);
+  EXPECT_DOUBLE_EQ(p.physics.contact_episode_gap, 2.0);
+}
+
+TEST(BadWorld, MalformedFrictions) {
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction: [0.3]}]\n"), "bad.yaml",
+                   {"objects[0].friction is a list of 1; it must be one number or [along x, along y]", "(line 2"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction: [0.3, -1]}]\n"), "bad.yaml",
+                   {"objects[0].friction[1] is '-1'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction: [slippery, 0.5]}]\n"), "bad.yaml",
+                   {"objects[0].friction[0] is 'slippery'; it must be a number"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, shape: sphere, friction: [0.2, 0.5]}]\n"), "bad.yaml",
+                   {"objects[0].friction differs along x and y on a sphere"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_redraw: 0.3}]\n"), "bad.yaml",
+                   {"objects[0].friction_redraw is '0.3'; it must be [min, max]"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_redraw: [0.1, 0.2, 0.3]}]\n"), "bad.yaml",
+                   {"objects[0].friction_redraw is a list; it must be [min, max]"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_redraw: [0, 1]}]\n"), "bad.yaml",
+                   {"objects[0].friction_redraw[0] is '0'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_redraw: [0.9, .inf]}]\n"), "bad.yaml",
+                   {"objects[0].friction_redraw[1] is '.inf'; it must be a finite number"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_redraw: [2, 0.5]}]\n"), "bad.yaml",
+                   {"objects[0].friction_redraw is [2, 0.5]; its min must not exceed its max"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction: [0.2, 0.5], friction_redraw: [0.1, 1]}]\n"),
+                   "bad.yaml", {"objects[0].friction_redraw is given with a friction that differs along x and y"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "physics: {friction_model: cone}\n"), "bad.yaml",
+                   {"physics.friction_model is 'cone'; it must be coulomb or pyramid"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "physics: {contact_episode_gap: 0}\n"), "bad.yaml",
+                   {"physics.contact_episode_gap is '0'; it must be greater than zero"}));
+  EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_noise: [0.1, 1]}]\n"), "bad.yaml",
+                   {"unknown key 'friction_noise'", "friction_redraw"}));
 }

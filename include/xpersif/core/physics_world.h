@@ -26,6 +26,12 @@
 
 namespace xpersif::core {
 
+/// The friction object @p object_index (@p object, the world's objects[object_index]) gets for its contact
+/// episode @p episode (1, 2, ...) when its friction is redrawn (ObjectSpec::redrawn()): log-uniform in
+/// [friction_redraw_min, friction_redraw_max] from streamSeed(@p seed, object_index, episode, Friction). A pure
+/// function of its arguments, so the same seed gives the same draws whatever else happened.
+double redrawnFriction(const ObjectSpec& object, std::uint64_t seed, std::size_t object_index, int episode);
+
 class PhysicsWorld {
  public:
   /// @throws WorldError when the spec cannot be simulated
@@ -95,6 +101,18 @@ class PhysicsWorld {
   };
   WheelState wheels() const;
 
+  /// The seed of the stream objects' frictions are redrawn from (world file `friction_redraw`): draw k of
+  /// object i comes from streamSeed(seed, i, k, Friction), so the same seed and the same pushes give the same
+  /// frictions. Defaults to physics.seed; kept across reset(). Takes effect for the next draws.
+  void setRedrawSeed(std::uint64_t seed);
+  std::uint64_t redrawSeed() const { return redraw_seed_; }
+  /// An object's friction against the floor now, along its x axis (and @p along_y across it): the file's,
+  /// or the last draw. For tests and benchmarks only: XPERSim never publishes it, the loop has to find out.
+  /// @throws ValidationError for unknown names
+  double objectFriction(const std::string& object, double* along_y = nullptr) const;
+  /// How many contact episodes with the robot an object has had since the start or the last reset.
+  int contactEpisodes(const std::string& object) const;
+
   /// "" when every body is finite and slower than max_speed, else what is wrong.
   std::string checkHealth() const;
   /// Test hook: push a non-finite (or, with @p explode, a huge) force into @p body for the next step.
@@ -105,6 +123,7 @@ class PhysicsWorld {
   SceneDescription buildScene() const;
 
   WorldSpec spec_;
+  std::uint64_t redraw_seed_;
   SceneDescription scene_;
   std::unique_ptr<Impl> impl_;
 };

@@ -31,6 +31,15 @@ struct PhysicsSpec {
   unsigned long seed = 1;
   int iterations = 30;
   double max_speed = 5.0;  ///< m/s; faster (or non-finite) bodies count as a blow-up
+  /// s of simulated time without touching the robot after which an object's next touch starts a new contact
+  /// episode (when its friction is redrawn, ObjectSpec::friction_redraw_min)
+  double contact_episode_gap = 0.5;
+  /// How friction acts at the objects' contacts (the robot's own wheels and body always use Pyramid):
+  /// Coulomb: a sliding contact's friction opposes its slip, mu times the normal force, and nothing across it
+  /// (so a pushed box turns as a real one does); a contact at rest holds up to mu along any axis.
+  /// Pyramid: ODE's box approximation along fixed axes, which lets a box that slides one way resist turning
+  /// with friction across the slide (objects turn a tenth of what they should); kept for comparison (bench/contact.md).
+  enum class FrictionModel { Coulomb, Pyramid } friction_model = FrictionModel::Coulomb;
 };
 
 struct ArenaSpec {
@@ -80,7 +89,18 @@ struct ObjectSpec {
   std::string name;
   Shape shape;
   double mass = 0.05;
+  /// Friction against the floor along the object's own x axis, and (with friction_y) across it: a sled on
+  /// runners slides along x and resists sideways motion. Against the robot, walls and other objects the
+  /// object's friction is the geometric mean of the two.
   double friction = 0.5;
+  double friction_y = 0.5;  ///< along the object's y axis; equal to friction unless the file gives [x, y]
+  /// When friction_redraw_max > 0: at the start of every contact episode with the robot (a touch after
+  /// physics.contact_episode_gap without one) the simulator draws the object's friction (both axes) at random,
+  /// log-uniformly in [friction_redraw_min, friction_redraw_max], from a stream seeded by the simulator's
+  /// redraw seed, the object's index and the episode's number. The loop never sees it.
+  double friction_redraw_min = 0, friction_redraw_max = 0;
+  bool anisotropic() const { return friction != friction_y; }
+  bool redrawn() const { return friction_redraw_max > 0; }
   Rgba color;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< z is set so the object rests on the floor
 };
