@@ -388,6 +388,8 @@ def run_cells(args, cells):
         sys.exit(130)
     if evaluation not in finished_cells:
         for cell in waiting_curve:
+            cell.outcome = (1, "ran, but has no learning curve: the evaluation set failed (%s)" % (
+                evaluation.outcome[1] if evaluation.outcome else "unknown"))
             failed.append(cell)
     progress.show(sum(c.experiments for c in finished_cells), len(finished_cells), len(cells), 0, final=True)
     for cell in failed:
