@@ -657,7 +657,7 @@ def report(args, cells, eval_objects, eval_why):
         lo, hi = bootstrap_median_ci(shares, rng)
         never = sum(math.isinf(s) for s in shares)
         md.append("- **%s**: median %s of random's experiments (95 %% bootstrap interval of the median %s–%s; per "
-                  "seed %s)%s." % (design, pct(median(shares)), pct(lo), pct(hi),
+                  "seed %s)%s." % (design, pct(median(shares)).replace("never", "never, i.e. more than all"), pct(lo), pct(hi),
                                    ", ".join(pct(s) for s in shares),
                                    "; never within its budget in %d of %d seeds" % (never, len(rows)) if never else ""))
     md.append("")
