@@ -4,6 +4,7 @@
  */
 #include "xpersif/core/experiment_design.h"
 
+#include "xpersif/core/learning_progress.h"
 #include "xpersif/core/validation.h"
 
 #include <cmath>
@@ -91,6 +92,17 @@ void DesignOptions::validate() const {
     throw ValidationError("options.candidates is " + std::to_string(candidates) + "; it must lie in [1, 10000]");
   }
   requireInRange("options.epsilon", epsilon, 0.0, 1.0);
+  if (region_max_size < 4 || region_max_size > 10000) {
+    throw ValidationError("options.region_max_size is " + std::to_string(region_max_size) +
+                          "; it must lie in [4, 10000]");
+  }
+  if (progress_window < 1 || progress_window > 1000) {
+    throw ValidationError("options.progress_window is " + std::to_string(progress_window) +
+                          "; it must lie in [1, 1000]");
+  }
+  requireOneOf("options.region_choice", region_choice, {"softmax", "greedy"});
+  requireInRange("options.temperature", temperature, 0.001, 100.0);
+  requireInRange("options.random_share", random_share, 0.0, 1.0);
 }
 
 // ---- random -----------------------------------------------------------------------------------------------
@@ -213,13 +225,15 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
 
 // ---- factory ----------------------------------------------------------------------------------------------
 
-std::vector<std::string> designNames() { return {"curiosity", "random", "grid"}; }
+std::vector<std::string> designNames() { return {"curiosity", "random", "grid", "learning_progress", "error_max"}; }
 
 std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
                                              const DesignOptions& options) {
   requireOneOf("design", name, designNames());
   if (name == "curiosity") return std::make_unique<CuriosityDesign>(seed, options);
   if (name == "random") return std::make_unique<RandomDesign>(seed, options);
+  if (name == "learning_progress") return std::make_unique<LearningProgressDesign>(seed, options);
+  if (name == "error_max") return std::make_unique<ErrorMaxDesign>(seed, options);
   return std::make_unique<GridDesign>(options);
 }
 

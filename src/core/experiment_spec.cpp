@@ -1,4 +1,5 @@
 #include "xpersif/core/experiment_spec.h"
+#include "xpersif/core/experiment_design.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -26,7 +27,7 @@ const std::map<std::string, std::vector<std::string>> kPhaseKeys = {
     {"experimentation", {"kind", "name", "design", "experiments", "goals", "seed_offset"}},
     {"goal_directed", {"kind", "name", "goals", "seed_offset"}},
 };
-const std::vector<std::string> kDesigns = {"curiosity", "random", "grid"};
+const std::vector<std::string> kDesigns = designNames();  // experiment_design.h: this package's designs
 const std::vector<std::string> kClocks = {"lockstep", "realtime", "fast"};
 const std::vector<std::string> kRecordingModes = {"off", "bags", "bags_with_images"};
 const std::vector<std::string> kCompressions = {"lz4", "bz2", "none"};

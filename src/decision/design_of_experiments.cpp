@@ -1,6 +1,8 @@
 #include "xpersif/decision/design_of_experiments.h"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
 #include <set>
 
 #include "xpersif/decision/decision_common.h"
@@ -75,6 +77,17 @@ void DesignOfExperiments::onConfigure() {
   pnh.param("epsilon", options.epsilon, options.epsilon);
   pnh.param("offset_bins", offset_bins, offset_bins);
   pnh.param("optimistic_curiosity", optimistic, optimistic);
+  int region_max_size = static_cast<int>(options.region_max_size), progress_window = static_cast<int>(options.progress_window);
+  pnh.param("region_max_size", region_max_size, region_max_size);
+  pnh.param("progress_window", progress_window, progress_window);
+  pnh.param("region_choice", options.region_choice, options.region_choice);
+  pnh.param("temperature", options.temperature, options.temperature);
+  pnh.param("random_share", options.random_share, options.random_share);
+  core::requireInRange("~region_max_size", region_max_size, 4, 10000);
+  core::requireInRange("~progress_window", progress_window, 1, 1000);
+  options.region_max_size = static_cast<std::size_t>(region_max_size);
+  options.progress_window = static_cast<std::size_t>(progress_window);
+  const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   pnh.param("features_topic", features_topic, features_topic);
   pnh.param("motivation_topic", motivation_topic, motivation_topic);
   core::requireInRange("~seed", seed, 0, 2147483647.0);
@@ -107,6 +120,7 @@ void DesignOfExperiments::onConfigure() {
     have_motivation_ = false;
     latest_features_.reset();
     features_topic_ = nodeHandle().resolveName(features_topic);
+    follow_ = follow;
   }
   features_sub_ = nodeHandle().subscribe<FeatureVector>(features_topic, 2, &DesignOfExperiments::onFeatures, this);
   motivation_sub_ = nodeHandle().subscribe<Motivation>(motivation_topic, 2, &DesignOfExperiments::onMotivation, this);
@@ -124,9 +138,60 @@ std::shared_ptr<core::ExperimentDesign> DesignOfExperiments::makeDesign(const st
   return made;
 }
 
+void DesignOfExperiments::onActivate() {
+  if (follower_) follower_->stop();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    history_run_ = 0;
+    history_.clear();
+  }
+  follower_ = std::make_unique<ExperimentFollower>(
+      nodeHandle(), follow_,
+      [this](std::uint64_t run, const std::vector<ExperimentRecord>& records) { resetHistory(run, records); },
+      [this](const ExperimentRecord& record) { addHistory(record); });
+  follower_->start();
+}
+
+void DesignOfExperiments::onDeactivate() {
+  if (follower_) follower_->stop();
+}
+
 void DesignOfExperiments::onShutdown() {
+  if (follower_) follower_->stop();
+  follower_.reset();
   features_sub_.shutdown();
   motivation_sub_.shutdown();
+}
+
+namespace {
+/// A record as the region designs see it: a successful experiment and its held-out error; none otherwise.
+std::optional<core::PastExperiment> pastExperiment(const ExperimentRecord& r) {
+  if (r.status != "done" || r.predicted_mean.size() != 3 || !std::isfinite(r.surprise) || r.surprise < 0) {
+    return std::nullopt;
+  }
+  return core::PastExperiment{r.experiment.object, r.experiment.side, r.experiment.offset, r.experiment.distance,
+                              r.surprise};
+}
+}  // namespace
+
+void DesignOfExperiments::resetHistory(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  history_run_ = run_id;
+  history_.clear();
+  for (const auto& r : records) {
+    if (auto past = pastExperiment(r)) history_.push_back(*past);
+  }
+  history_grew_.notify_all();
+}
+
+void DesignOfExperiments::addHistory(const ExperimentRecord& record) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (record.run_id != history_run_) {  // the follower resets first; this only guards against a stray record
+    history_run_ = record.run_id;
+    history_.clear();
+  }
+  if (auto past = pastExperiment(record)) history_.push_back(*past);
+  history_grew_.notify_all();
 }
 
 void DesignOfExperiments::onFeatures(const FeatureVector::ConstPtr& features) {
@@ -182,7 +247,18 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
     ROS_WARN("%s: MOTIVATION has not spoken of %u experiments within 10 s; designing with what it said",
              name().c_str(), request.scored);
   }
+  if (design_->usesHistory()) {
+    const auto ready = [&] {
+      return (request.run_id == 0 || history_run_ == request.run_id) && history_.size() >= request.scored;
+    };
+    if (!history_grew_.wait_for(lock, std::chrono::seconds(10), ready)) {
+      ROS_WARN("%s: the knowledge base's experiments of run %lu have not all arrived within 10 s (%zu of %u); "
+               "designing with what came",
+               name().c_str(), static_cast<unsigned long>(request.run_id), history_.size(), request.scored);
+    }
+  }
   core::DesignContext context;
+  if (design_->usesHistory() && (request.run_id == 0 || history_run_ == request.run_id)) context.history = history_;
   const std::set<std::string> can(reachable.begin(), reachable.end());
   for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0, footprints_.at(name)});
   context.history_count = request.seeded ? request.experiment : designed_;

@@ -640,6 +640,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       request.request.seeded = true;
       request.request.stream = core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Design);
       request.request.experiment = done;
+      request.request.run_id = result.run_id;
       Spending spending(wall_spent_, "design");
       why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);

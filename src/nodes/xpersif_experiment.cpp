@@ -17,6 +17,7 @@
 //   its required node returned: scripts/run.sh exits with this file's code).
 #include <ros/master.h>
 #include <ros/ros.h>
+#include <yaml-cpp/yaml.h>
 
 #include <actionlib/client/simple_action_client.h>
 
@@ -308,8 +309,13 @@ class Runner {
     // Component parameters, loaded into /xpersif after the launch's own.
     std::ostringstream parameters;
     parameters << "# Component parameters the experiment overrides (loaded into /xpersif by xpersif.launch).\n";
-    if (spec_.parameters.empty()) parameters << "{}\n";
-    for (const auto& [component, values] : spec_.parameters) parameters << component << ": " << values << "\n";
+    // Emitted as one YAML document: a component's values may be a nested mapping or hold lists, which a flow
+    // text after "component: " would not always keep valid.
+    YAML::Node all(YAML::NodeType::Map);
+    for (const auto& [component, values] : spec_.parameters) all[component] = YAML::Load(values);
+    YAML::Emitter emitted;
+    emitted << all;
+    parameters << (spec_.parameters.empty() ? std::string("{}") : std::string(emitted.c_str())) << "\n";
     parameters_file_ = (fs::path(run_dir_) / "parameters.yaml").string();
     writeFile(parameters_file_, parameters.str());
     code_version_ = codeVersion(package_dir_);
@@ -411,6 +417,11 @@ class Runner {
     const auto evaluation = spec_.phaseNames("evaluation");
     // The report judges every model on the evaluation set: without one there is nothing to judge on.
     if (evaluation.empty()) return finish(0, done + "; no evaluation phase, so no report; results in " + run_dir_);
+    // An evaluation set alone (a study's, scripts/study.py) has no design to judge on it.
+    if (spec_.phaseNames("experimentation").empty()) {
+      return finish(0, done + "; no experimentation phase to judge on the evaluation set, so no report; results in " +
+                           run_dir_);
+    }
     say("report", "writing the report into " + run_dir_);
     std::vector<std::string> argv = {sibling("xpersif_report"), "--database", run_dir_ + "/knowledge.db", "--out", run_dir_,
                                      "--evaluation", evaluation.front()};

@@ -8,6 +8,7 @@
 
 #include "xpersif/core/experiment_design.h"
 #include "xpersif/core/gaussian_process_push_model.h"
+#include "xpersif/core/learning_progress.h"
 #include "xpersif/core/plan_search.h"
 #include "xpersif/core/push_learner.h"
 
@@ -17,6 +18,8 @@ PLUGINLIB_EXPORT_CLASS(xpersif::core::GaussianProcessPushModel, xpersif::core::P
 PLUGINLIB_EXPORT_CLASS(xpersif::core::CuriosityDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::RandomDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GridDesign, xpersif::core::ExperimentDesign)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::LearningProgressDesign, xpersif::core::ExperimentDesign)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::ErrorMaxDesign, xpersif::core::ExperimentDesign)
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::BreadthFirstSearch, xpersif::core::PlanSearch)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GreedyGoalCountSearch, xpersif::core::PlanSearch)

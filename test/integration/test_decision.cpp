@@ -136,7 +136,7 @@ void reconfigure(const std::string& design_name) {
 }  // namespace
 
 TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigure) {
-  for (const std::string name : {"random", "grid", "curiosity"}) {
+  for (const std::string name : {"random", "grid", "curiosity", "learning_progress", "error_max"}) {
     reconfigure(name);
     // Vision's features must have arrived (the designs push only what is seen when the request lists nothing).
     ASSERT_TRUE(waitFor([&] { return design().response.success; }, 20.0)) << design().response.message;
@@ -173,7 +173,7 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   ASSERT_TRUE(ros::service::call(ns + "design_of_experiments/design_experiment", undeclared));
   EXPECT_FALSE(undeclared.response.success);
   EXPECT_EQ(undeclared.response.code, xpersif::ResultCode::INVALID);
-  EXPECT_NE(undeclared.response.message.find("curiosity, grid, random"), std::string::npos)
+  EXPECT_NE(undeclared.response.message.find("curiosity, error_max, grid, learning_progress, random"), std::string::npos)
       << undeclared.response.message;
 
   // An unknown design: configure fails, naming the parameter and the declared designs; a good one recovers.
@@ -184,7 +184,7 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   EXPECT_EQ(failed.state, xpersif::ComponentStatus::ERROR);
   EXPECT_NE(failed.message.find("~design"), std::string::npos) << failed.message;
   EXPECT_NE(failed.message.find("astrology"), std::string::npos) << failed.message;
-  EXPECT_NE(failed.message.find("curiosity, grid, random"), std::string::npos) << failed.message;
+  EXPECT_NE(failed.message.find("curiosity, error_max, grid, learning_progress, random"), std::string::npos) << failed.message;
   ros::param::set(ns + "design_of_experiments/design", std::string("curiosity"));
   ASSERT_TRUE(transition(ns + "design_of_experiments", "configure").success);
   ASSERT_TRUE(transition(ns + "design_of_experiments", "activate").success);

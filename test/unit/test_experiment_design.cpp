@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "xpersif/core/experiment_design.h"
+#include "xpersif/core/learning_progress.h"
 #include "xpersif/core/random_stream.h"
 #include "xpersif/core/validation.h"
 
@@ -372,6 +373,8 @@ TEST(ExperimentDesign, InitializeRestartsFromTheSeed) {
     if (name == "random") plugin = std::make_unique<RandomDesign>();
     if (name == "grid") plugin = std::make_unique<GridDesign>();
     if (name == "curiosity") plugin = std::make_unique<CuriosityDesign>();
+    if (name == "learning_progress") plugin = std::make_unique<LearningProgressDesign>();
+    if (name == "error_max") plugin = std::make_unique<ErrorMaxDesign>();
     ASSERT_TRUE(plugin) << name;
     plugin->initialize(11, options);
     const auto expected = run(*made, c, 12);

@@ -45,6 +45,16 @@ struct DesignObject {
   Footprint footprint;    ///< its offsets are fractions of maxPushOffset(footprint, side)
 };
 
+/// An experiment of the run so far, with the error of the prediction the model made before it saw the outcome
+/// (held out: LOOPMODEL's `surprise`, metres). Only successful experiments have one.
+struct PastExperiment {
+  std::string object;
+  std::string side;
+  double offset = 0;    ///< m
+  double distance = 0;  ///< m
+  double error = 0;     ///< m, >= 0
+};
+
 struct DesignContext {
   std::vector<DesignObject> objects;  ///< the objects that may be pushed
   std::size_t history_count = 0;      ///< experiments done so far
@@ -53,6 +63,9 @@ struct DesignContext {
   std::optional<std::uint64_t> stream;
   /// Expected learning progress of a candidate (MOTIVATION's curiosity); required by the curiosity design.
   std::function<double(const ExperimentChoice&)> curiosity;
+  /// The run's successful experiments so far, in order, with their held-out errors; required (possibly empty)
+  /// by designs whose usesHistory() is true.
+  std::vector<PastExperiment> history;
 };
 
 /// Offsets are fractions in [-1, 1] of each pushed face's offset limit (maxPushOffset, footprint.h), so one
@@ -69,7 +82,14 @@ struct DesignOptions {
   std::vector<double> grid_offsets{-0.75, 0.0, 0.75};
   std::vector<double> grid_distances{0.2, 0.4};
   std::size_t candidates = 32;  ///< curiosity design: candidates sampled per decision (1..10000)
-  double epsilon = 0.1;         ///< curiosity design: probability of a random candidate instead of the best
+  double epsilon = 0.1;         ///< curiosity design: probability of a random candidate instead of the best;
+                                ///< region designs with region_choice "greedy": probability of a random region
+  // Region designs (learning_progress, error_max; learning_progress.h):
+  std::size_t region_max_size = 30;  ///< a region holding more experiments is split (4..10000)
+  std::size_t progress_window = 10;  ///< errors per window of the learning progress (1..1000)
+  std::string region_choice = "softmax";  ///< "softmax" or "greedy"
+  double temperature = 0.1;   ///< softmax temperature, relative to the largest |interest| (0.001..100)
+  double random_share = 0.2;  ///< probability of a uniformly random push over the whole space, [0, 1]
 
   /// Throw ValidationError (one sentence naming the option) unless the options are consistent.
   void validate() const;
@@ -90,6 +110,9 @@ class ExperimentDesign {
   virtual ExperimentChoice next(const DesignContext& context) = 0;
   /// Whether next() consults context.curiosity (DESIGNOFEXPERIMENTS then waits for MOTIVATION's latest word).
   virtual bool usesCuriosity() const { return false; }
+  /// Whether next() reads context.history (DESIGNOFEXPERIMENTS then follows the knowledge base's experiments of
+  /// the run and waits until it has every one the request counts).
+  virtual bool usesHistory() const { return false; }
 };
 
 /// Uniform over reachable objects, sides, offsets and distances (within the options' bounds).
@@ -149,7 +172,7 @@ class CuriosityDesign : public ExperimentDesign {
 };
 
 /// The designs of this package under the names experiment_design_plugins.xml gives them ("curiosity",
-/// "random", "grid"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
+/// "random", "grid", "learning_progress", "error_max"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
 /// through pluginlib, which also finds other packages' designs.
 std::vector<std::string> designNames();
 

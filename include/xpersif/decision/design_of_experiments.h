@@ -10,6 +10,12 @@
  * A region the message does not list, or every region before the first message, counts as unexplored:
  * optimistic curiosity (~optimistic_curiosity, 1 as in CuriosityConfig).
  *
+ * Designs that read the run's history (usesHistory(): learning_progress, error_max) get the run's successful
+ * experiments with their held-out errors (the records' `surprise`: the prediction was made before the outcome was
+ * seen) from the KNOWLEDGEBASE's experiments, followed as MOTIVATION follows them (ExperimentFollower, restored from
+ * the KB on a new run or a restart); a request first waits (bounded, 10 s) until the follower holds the request's
+ * run and `scored` successful experiments of it, so the choice never depends on when a message arrived.
+ *
  * Which objects may be pushed: the request's `reachable` list, or else the objects of the latest feature
  * vector on ~features_topic (VISION's), always restricted to ~objects.
  *
@@ -18,7 +24,9 @@
  * scene; a list restricts it), ~min_offset/~max_offset (fractions of each face's offset limit, -1/1),
  * ~min_distance/~max_distance (m, the set-up's minPushDistance/maxPushDistance), ~grid_offsets (fractions,
  * [-0.75, 0, 0.75]), ~grid_distances (fractions of ~max_distance, [0.2, 0.4]), ~candidates (32), ~epsilon (0.1),
- * ~offset_bins (3), ~optimistic_curiosity (1.0),
+ * ~offset_bins (3), ~optimistic_curiosity (1.0), the region designs' ~region_max_size (30), ~progress_window (10),
+ * ~region_choice (softmax | greedy), ~temperature (0.1), ~random_share (0.2) (core::DesignOptions), the
+ * follower's ~restore, ~restore_timeout, ~experiments_topic, ~run_topic, ~knowledge_base (ExperimentFollower),
  * ~features_topic (vision/features), ~motivation_topic (motivation/motivation). An unknown design or bad
  * bounds make configure fail with the sentence naming the parameter (for a design: and listing the declared
  * ones); a request naming an undeclared design is refused with ResultCode INVALID and the same list. Re-configuring restarts the design
@@ -36,6 +44,7 @@
 #include "xpersif/DesignExperiment.h"
 #include "xpersif/FeatureVector.h"
 #include "xpersif/Motivation.h"
+#include "xpersif/cognition/experiment_follower.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/experiment_design.h"
 #include "xpersif/core/motivation.h"
@@ -49,6 +58,8 @@ class DesignOfExperiments : public Component {
 
  protected:
   void onConfigure() override;
+  void onActivate() override;
+  void onDeactivate() override;
   void onShutdown() override;
 
  private:
@@ -57,6 +68,9 @@ class DesignOfExperiments : public Component {
   void design(const DesignExperiment::Request& request, DesignExperiment::Response& response);
   void onFeatures(const FeatureVector::ConstPtr& features);
   void onMotivation(const Motivation::ConstPtr& motivation);
+  /// The follower's hooks: the run's history from scratch, and one more record.
+  void resetHistory(std::uint64_t run_id, const std::vector<ExperimentRecord>& records);
+  void addHistory(const ExperimentRecord& record);
 
   /// A new design of @p type, initialized with @p seed and @p options; throws ValidationError (naming
   /// @p parameter) for an undeclared type or bad options.
@@ -80,6 +94,12 @@ class DesignOfExperiments : public Component {
   std::uint32_t motivation_scored_ = 0;  // experiments MOTIVATION's latest message counts
   std::condition_variable motivated_;
   FeatureVector::ConstPtr latest_features_;
+  // The run's successful experiments with their held-out errors (the follower's thread fills them).
+  ExperimentFollower::Options follow_;
+  std::unique_ptr<ExperimentFollower> follower_;
+  std::uint64_t history_run_ = 0;
+  std::vector<core::PastExperiment> history_;
+  std::condition_variable history_grew_;
   std::string features_topic_;
 
   ros::Subscriber features_sub_;

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# A tiny study through scripts/study.py (issue 16): 2 seeds x 2 designs (random, learning_progress) x 10 experiments
+# and a held-out evaluation set of 6 pushes, two cells at once, each on a master of its own; then
+#  - test/study_check.py: the report's files exist and its figures agree with the knowledge bases (evaluation set
+#    only on the learnable objects, per-cell counts, curves recomputed, reach, shares per object);
+#  - the same command again resumes: every cell is skipped and the report is the same.
+#   bash test/study.sh BUILD_DIR        KEEP=1 keeps the study's directory
+set -eo pipefail
+HERE=$(cd "$(dirname "$0")/.." && pwd)
+BUILD=$(cd "${1:-$HERE/build}" && pwd)
+export PATH=/usr/bin:$PATH
+set +u
+# shellcheck disable=SC1091
+source "$BUILD/devel/setup.bash"
+set -u
+export PATH="$BUILD/devel/lib/xpersif:$PATH" ROS_IP=127.0.0.1
+T=$(mktemp -d /tmp/xpersif-study-XXXXXX)
+cleanup() { [ -n "${KEEP:-}" ] && echo "kept $T" || rm -rf "$T"; }
+trap cleanup EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+args=(--seeds 2 --designs random,learning_progress --budget 10 --evaluation-size 6 --every 1 --jobs 2 --out "$T/study")
+started=$SECONDS
+/usr/bin/python3 "$HERE/scripts/study.py" "${args[@]}" 2>"$T/first.log" || { cat "$T/first.log"; fail "the study failed"; }
+echo "ok: the tiny study ran in $((SECONDS - started)) s"
+grep -q "study \[" "$T/first.log" || { cat "$T/first.log"; fail "no progress line"; }
+grep -q "left" "$T/first.log" || fail "the progress line gives no time left"
+/usr/bin/python3 "$HERE/test/study_check.py" "$T/study" "$BUILD/devel/lib/xpersif/xpersif_study_curve" || fail "the report disagrees with the knowledge bases"
+cp "$T/study/report/cells.csv" "$T/cells_first.csv"
+
+started=$SECONDS
+/usr/bin/python3 "$HERE/scripts/study.py" "${args[@]}" 2>"$T/second.log" || { cat "$T/second.log"; fail "resuming failed"; }
+grep -q "5 of 5 cells already finished" "$T/second.log" || { cat "$T/second.log"; fail "resuming did not skip the finished cells"; }
+cmp -s "$T/cells_first.csv" "$T/study/report/cells.csv" || fail "the resumed study's report differs"
+echo "ok: the same command again skipped every cell ($((SECONDS - started)) s) and wrote the same figures"
+
+# Another study in the same directory is refused with a sentence.
+if /usr/bin/python3 "$HERE/scripts/study.py" --seeds 3 --designs random --budget 10 --out "$T/study" 2>"$T/third.log"; then
+  fail "another study was accepted in the same directory"
+fi
+grep -q "holds another study" "$T/third.log" || { cat "$T/third.log"; fail "no sentence for another study"; }
+echo "ok: another study in the same directory refused: $(head -1 "$T/third.log")"
+echo "PASS"

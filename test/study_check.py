@@ -1,0 +1,131 @@
+#!/usr/bin/python3
+"""Checks a study's report against its knowledge bases (test/study.sh).
+
+    study_check.py STUDY_DIR XPERSIF_STUDY_CURVE
+
+Every figure of the report is recomputed here from the SQLite knowledge bases (and, for the learning curves, by
+running xpersif_study_curve again into a temporary directory) and compared.
+"""
+import csv
+import json
+import math
+import os
+import sqlite3
+import subprocess
+import sys
+import tempfile
+
+study, curve_tool = sys.argv[1], sys.argv[2]
+report = os.path.join(study, "report")
+problems = []
+
+
+def check(condition, sentence):
+    if not condition:
+        problems.append(sentence)
+    return condition
+
+
+def rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def close(a, b, tol=1e-6):
+    return abs(float(a) - float(b)) <= tol * max(1.0, abs(float(a)), abs(float(b)))
+
+
+for name in ["report.md", "learning_curves.csv", "learning_curves.png", "reach.csv", "tests.csv", "object_share.csv",
+             "object_share.png", "cells.csv"]:
+    check(os.path.getsize(os.path.join(report, name)) > 0, "report/%s is missing or empty" % name)
+check(os.path.exists(os.path.join(study, "evaluation_set.csv")), "evaluation_set.csv is missing")
+with open(os.path.join(study, "study.json")) as f:
+    definition = json.load(f)
+designs, seeds, budget = definition["designs"], definition["seeds"], definition["budget"]
+eval_objects = set(definition["evaluation"]["objects"])
+
+# The evaluation set: the learnable objects only, as stored.
+con = sqlite3.connect(os.path.join(study, "evaluation", "knowledge.db"))
+(run_id,) = con.execute("SELECT id FROM runs WHERE name = 'evaluation'").fetchone()
+ev = con.execute("SELECT seq, object FROM experiments WHERE run_id = ? AND status = 'done' ORDER BY seq", (run_id,)).fetchall()
+check(len(ev) >= 1, "the evaluation set is empty")
+check({o for _, o in ev} <= eval_objects, "the evaluation set pushes %s, outside %s" % ({o for _, o in ev}, eval_objects))
+stored = rows(os.path.join(study, "evaluation_set.csv"))
+check([int(r["seq"]) for r in stored] == [s for s, _ in ev], "evaluation_set.csv is not the evaluation run's pushes")
+all_objects = [o for (o,) in con.execute("SELECT DISTINCT object FROM experiments")]
+con.close()
+
+cells = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "cells.csv"))}
+check(set(cells) == {(d, s) for d in designs for s in seeds}, "cells.csv has %s" % sorted(cells))
+curves = {}
+shares_kb = {}
+for (design, seed), cell in cells.items():
+    d = os.path.join(study, "cells", "%s-seed%03d" % (design, seed))
+    con = sqlite3.connect(os.path.join(d, "knowledge.db"))
+    runs = con.execute("SELECT id, seed, design FROM runs WHERE name = ?", (design,)).fetchall()
+    check(len(runs) == 1 and runs[0][1] == seed and runs[0][2] == design,
+          "%s-%d: the knowledge base's runs are %s" % (design, seed, runs))
+    run = runs[0][0]
+    ex = con.execute("SELECT seq, object, status, design FROM experiments WHERE run_id = ? AND seq <= ? ORDER BY seq",
+                     (run, budget)).fetchall()
+    con.close()
+    check(len(ex) == budget == int(cell["designed"]), "%s-%d: %d designed in the KB, %s in cells.csv" % (design, seed, len(ex), cell["designed"]))
+    check(all(e[3] == design for e in ex), "%s-%d: experiments designed by %s" % (design, seed, {e[3] for e in ex}))
+    check(sum(e[2] != "done" for e in ex) == int(cell["failed"]), "%s-%d: failed count differs" % (design, seed))
+    for o in set(all_objects) | {k[2:] for k in cell if k.startswith("n_")}:
+        check(sum(e[1] == o for e in ex) == int(cell.get("n_" + o, 0) or 0), "%s-%d: count of %s differs" % (design, seed, o))
+    shares_kb[(design, seed)] = ex
+    # The curve again, from the knowledge bases.
+    with tempfile.TemporaryDirectory() as t:
+        subprocess.run([curve_tool, "--evaluation-database", os.path.join(study, "evaluation", "knowledge.db"),
+                        "--database", os.path.join(d, "knowledge.db"), "--run", design, "--out", t, "--every", "1"],
+                       check=True, capture_output=True)
+        again = [(int(r["experiments"]), float(r["error"])) for r in rows(os.path.join(t, "curve.csv"))]
+    stored_curve = [(int(r["experiments"]), float(r["error"])) for r in rows(os.path.join(d, "curve.csv"))]
+    check(again == stored_curve, "%s-%d: the curve recomputed from the KB differs from curve.csv" % (design, seed))
+    check(again[-1][0] == sum(e[2] == "done" for e in ex) == int(cell["learned"]),
+          "%s-%d: the curve does not end at the successful experiments" % (design, seed))
+    check(close(again[-1][1], cell["final_error"]), "%s-%d: final error differs" % (design, seed))
+    check(again[0][1] > again[-1][1], "%s-%d: the error did not fall (%s -> %s)" % (design, seed, again[0][1], again[-1][1]))
+    curves[(design, seed)] = dict(again)
+
+# Learning curves: mean over seeds at every k.
+for r in rows(os.path.join(report, "learning_curves.csv")):
+    values = [c[int(r["experiments"])] for (dd, _), c in curves.items() if dd == r["design"] and int(r["experiments"]) in c]
+    check(len(values) == int(r["seeds"]) and close(sum(values) / len(values), r["mean"]),
+          "learning_curves.csv %s k=%s: mean differs" % (r["design"], r["experiments"]))
+    check(float(r["ci_low"]) <= float(r["mean"]) <= float(r["ci_high"]), "learning_curves.csv: the band does not hold the mean")
+
+# Reach: the first k at which a design is at or below random's final error of the same seed.
+for r in rows(os.path.join(report, "reach.csv")):
+    seed = int(r["seed"])
+    rc = curves[("random", seed)]
+    target = rc[max(rc)]
+    check(close(r["random_final_error"], target), "reach.csv seed %d: random's final error differs" % seed)
+    c = curves[(r["design"], seed)]
+    k = next((kk for kk in sorted(c) if c[kk] <= target), None)
+    check((r["experiments_to_reach"] == "" and k is None) or (k is not None and int(r["experiments_to_reach"]) == k),
+          "reach.csv %s seed %d: %s, the KB says %s" % (r["design"], seed, r["experiments_to_reach"], k))
+
+# Shares per object over time.
+for r in rows(os.path.join(report, "object_share.csv")):
+    values = []
+    for (dd, _), ex in shares_kb.items():
+        if dd != r["design"]:
+            continue
+        inside = [e for e in ex if int(r["from"]) <= e[0] <= int(r["to"])]
+        if inside:
+            values.append(sum(e[1] == r["object"] for e in inside) / len(inside))
+    check(values and close(sum(values) / len(values), r["share"]),
+          "object_share.csv %s %s %s-%s differs" % (r["design"], r["object"], r["from"], r["to"]))
+
+text = open(os.path.join(report, "report.md")).read()
+for design in designs:
+    check(design in text, "report.md does not mention %s" % design)
+check("Wilcoxon" in text and "bootstrap" in text, "report.md lacks the test or the interval")
+
+if problems:
+    print("\n".join("FAIL: " + p for p in problems))
+    sys.exit(1)
+print("ok: the report agrees with %d knowledge bases (%d cells, evaluation set of %d pushes on %s)" % (
+    len(cells) + 1, len(cells), len(ev), ", ".join(sorted(eval_objects))))
