@@ -223,6 +223,8 @@ class Runner {
     pnh_.param("components", components_, components_);
     pnh_.param("package_dir", package_dir_, package_dir_);
     pnh_.param("startup_timeout", startup_timeout_, startup_timeout_);
+    pnh_.param("web", web_, web_);
+    pnh_.param("web_port", web_port_, web_port_);
     // roslaunch starts nodes in ROS_HOME: relative paths are the launching shell's (~cwd).
     std::string cwd;
     pnh_.param("cwd", cwd, cwd);
@@ -310,7 +312,12 @@ class Runner {
         "database:=" + run_dir_ + "/knowledge.db", "seed:=" + std::to_string(spec_.seed), "run_dir:=" + run_dir_,
         "clock_mode:=" + spec_.clock, "record:=" + record, "record_images:=" + images,
         "record_compression:=" + spec_.recording.compression, "parameters:=" + parameters_file_};
-    return spawn(argv, run_dir_ + "/launch.log", {"ROS_LOG_DIR=" + run_dir_ + "/ros_log"});
+    std::vector<std::string> args = argv;
+    if (web_) {  // watch it in a browser (WEBBRIDGE)
+      args.push_back("web:=true");
+      args.push_back("web_port:=" + std::to_string(web_port_));
+    }
+    return spawn(args, run_dir_ + "/launch.log", {"ROS_LOG_DIR=" + run_dir_ + "/ros_log"});
   }
 
   int runPhases() {
@@ -459,6 +466,8 @@ class Runner {
   std::string status_file_, components_, package_dir_, run_dir_, world_copy_, parameters_file_, as_run_json_,
       code_version_, last_goal_text_;
   double startup_timeout_ = 180.0;
+  bool web_ = false;      // ~web: the system with WEBBRIDGE (web:=true), on ~web_port
+  int web_port_ = 8765;
   pid_t launch_ = -1;
   bool owns_run_dir_ = false;
   std::chrono::steady_clock::time_point started_;
