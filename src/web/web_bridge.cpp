@@ -654,8 +654,7 @@ struct WebBridge::Impl {
   void start() {
     server = std::make_unique<Server>();
     server->clear_access_channels(websocketpp::log::alevel::all);
-    server->clear_error_channels(websocketpp::log::elevel::all);
-    server->set_error_channels(websocketpp::log::elevel::fatal);
+    server->clear_error_channels(websocketpp::log::elevel::all);  // its failures reach our handlers, logged there
     websocketpp::lib::error_code ec;
     server->init_asio(ec);
     if (ec) throw std::runtime_error("cannot start the web server: " + ec.message());

@@ -70,13 +70,14 @@ def close_code(ws, timeout=10):
     deadline = time.time() + timeout
     while time.time() < deadline:
         try:
-            opcode, data = ws.recv_data(control_frame=True)
-        except websocket.WebSocketConnectionClosedException:
+            frame = ws.recv_frame()  # raw frames: recv_data would answer the close and fail on a closed socket
+        except (websocket.WebSocketConnectionClosedException, socket.timeout, websocket.WebSocketTimeoutException,
+                ConnectionResetError, BrokenPipeError):
             return None
-        except (socket.timeout, websocket.WebSocketTimeoutException):
+        if frame is None:
             return None
-        if opcode == websocket.ABNF.OPCODE_CLOSE:
-            return struct.unpack("!H", data[:2])[0] if len(data) >= 2 else None
+        if frame.opcode == websocket.ABNF.OPCODE_CLOSE:
+            return struct.unpack("!H", frame.data[:2])[0] if len(frame.data) >= 2 else None
     return None
 
 
