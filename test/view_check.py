@@ -16,6 +16,7 @@ Nothing is hard-coded about the world: objects, colours, the robot and the arena
 """
 import json
 import math
+import os
 import subprocess
 import sys
 import time
@@ -125,7 +126,9 @@ def shot(out, png):
         experiment.append(m.experiment)
     rospy.Subscriber(NS + "/loop_model/progress", RunLoopFeedback, on_progress, queue_size=10)
     deadline = time.time() + 90
-    while (not state or state[-1] != "experimenting") and time.time() < deadline:
+    # XPERSIF_SHOT_EXPERIMENT: wait for that experiment number too (a panel that shows it is then not a default).
+    at_least = int(os.environ.get("XPERSIF_SHOT_EXPERIMENT", "0"))
+    while (not state or state[-1] != "experimenting" or experiment[-1] < at_least) and time.time() < deadline:
         time.sleep(0.05)
     print("loop:", state[-1] if state else "no progress")
     print("pause:", rospy.ServiceProxy(NS + "/xpersim/pause", Trigger)().message)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The browser viewer as a person sees it (issue 18): xpersif.launch web:=true headless on a private master, a short
-# run in the background; once the run is experimenting XPERSim is paused (test/view_check.py shot) and Debian's
+# run in the background; once the run is at experiment 2 XPERSim is paused (test/view_check.py shot) and Debian's
 # chromium, headless and driven by playwright-core (web/test/browser_check.mjs), opens the page the bridge
 # serves. The page's view through the scene's overhead camera must show the robot and every object in its own
 # colour where ground truth says (projected through that camera, as for telesim_view), and the progress panel the
@@ -56,11 +56,11 @@ url="http://127.0.0.1:$web_port/"
 echo "the bridge serves $url"
 camera=$(/usr/bin/python3 "$repo/test/view_check.py" camera)
 
-# XPERSim is paused once the run's first experiment is under way; the page is opened then.
-/usr/bin/python3 "$repo/test/view_check.py" shot "$work/truth.json" - &
+# XPERSim is paused once the run's experiment 2 is under way; the page is opened then.
+XPERSIF_SHOT_EXPERIMENT=2 /usr/bin/python3 "$repo/test/view_check.py" shot "$work/truth.json" - &
 shot=$!
 sleep 3
-xpersif run webshot --experiments 2 --goals 0 --design random >"$work/run.log" 2>&1 &
+xpersif run webshot --experiments 3 --goals 0 --design random >"$work/run.log" 2>&1 &
 run=$!
 wait "$shot"
 sim_time=$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["time"])' "$work/truth.json")

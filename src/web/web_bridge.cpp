@@ -219,6 +219,7 @@ struct WebBridge::Impl {
       }
       assets[path] = std::move(a);
     }
+    assets["/favicon.ico"] = Asset{204, "image/x-icon", ""};  // none: no 404 in the browser's console
     if (!missing.empty()) {
       ROS_ERROR("%s: the page cannot be served whole; missing: %s (run `npm ci` in %s; bash scripts/setup.sh does it). "
                 "The WebSocket stream works without it.",
