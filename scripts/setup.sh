@@ -16,6 +16,18 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
+# The browser viewer's npm packages (web/package-lock.json: three.js for the page, playwright-core for its test),
+# installed exactly as locked. Debian's nodejs may come without npm: then Debian's npm package.
+if [[ ! -d "$repo/web/node_modules/three" || ! -d "$repo/web/node_modules/playwright-core" ]]; then
+  if ! command -v npm >/dev/null; then
+    sudo=""
+    [[ $(id -u) -eq 0 ]] || sudo=sudo
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq npm >/dev/null
+  fi
+  echo "setup: npm ci in web/"
+  (cd "$repo/web" && npm ci --no-audit --no-fund >"$repo/web/npm.log" 2>&1) || { cat "$repo/web/npm.log"; exit 1; }
+fi
+
 # ROS's tools live in /usr/bin/python3; a python3 earlier on the PATH (pyenv) lacks catkin_pkg.
 cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >"$repo/build.log" 2>&1 ||

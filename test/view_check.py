@@ -5,15 +5,18 @@
                                             robot description parameter is set
   view_check.py camera                      the first camera fixed to the world (for telesim_view)
   view_check.py scale                       px/m of a top-down view that shows the whole arena
-  view_check.py shot OUT.json SHOT.png      once a run is experimenting, pause XPERSim, screenshot the display,
-                                            keep ground truth + scene
+  view_check.py shot OUT.json SHOT.png      once a run is experimenting, pause XPERSim, screenshot the display
+                                            (SHOT.png "-": none), keep ground truth + scene + the loop's experiment
   view_check.py rviz OUT.json SHOT.png      each body's colour near its ground-truth pose in the top-down shot
-  view_check.py telesim OUT.json IMAGE.png  the same in telesim_view's rendered image of that camera
+  view_check.py telesim OUT.json IMAGE.png CAMERA [LABEL]
+                                            the same in an image rendered through that scene camera (telesim_view's,
+                                            or the web page's view of it)
 
 Nothing is hard-coded about the world: objects, colours, the robot and the arena come from XPERSim's scene.
 """
 import json
 import math
+import os
 import subprocess
 import sys
 import time
@@ -116,17 +119,24 @@ def shot(out, png):
         time.sleep(0.1)
     # During a run: as soon as LOOPMODEL reports an experiment under way (the robot on its way to it).
     from xpersif.msg import RunLoopFeedback
-    state = []
-    rospy.Subscriber(NS + "/loop_model/progress", RunLoopFeedback, lambda m: state.append(m.state), queue_size=10)
+    state, experiment = [], []
+
+    def on_progress(m):
+        state.append(m.state)
+        experiment.append(m.experiment)
+    rospy.Subscriber(NS + "/loop_model/progress", RunLoopFeedback, on_progress, queue_size=10)
     deadline = time.time() + 90
-    while (not state or state[-1] != "experimenting") and time.time() < deadline:
+    # XPERSIF_SHOT_EXPERIMENT: wait for that experiment number too (a panel that shows it is then not a default).
+    at_least = int(os.environ.get("XPERSIF_SHOT_EXPERIMENT", "0"))
+    while (not state or state[-1] != "experimenting" or experiment[-1] < at_least) and time.time() < deadline:
         time.sleep(0.05)
     print("loop:", state[-1] if state else "no progress")
     print("pause:", rospy.ServiceProxy(NS + "/xpersim/pause", Trigger)().message)
     time.sleep(4)  # the last frame reaches every viewer; software GL renders it
     sub.unregister()
     truth = latest[-1]
-    subprocess.check_call(["/usr/bin/import", "-window", "root", png])
+    if png != "-":
+        subprocess.check_call(["/usr/bin/import", "-window", "root", png])
     bodies = {}
     for name, pose in zip(truth.names, truth.poses):
         bodies[name] = [pose.position.x, pose.position.y, pose.position.z, quat_yaw(pose.orientation)]
@@ -139,7 +149,8 @@ def shot(out, png):
         size = v.box_size  # a box's half diagonal, else the radius (both fields are always filled)
         radii[name] = math.hypot(size.x, size.y) / 2 if v.type == v.BOX else v.radius
     arena = nodes["arena"].visuals
-    json.dump({"time": truth.header.stamp.to_sec(), "bodies": bodies, "colours": colours, "radii": radii,
+    json.dump({"time": truth.header.stamp.to_sec(), "experiment": experiment[-1] if experiment else None,
+               "bodies": bodies, "colours": colours, "radii": radii,
                "robot": [n for n in truth.names if n not in scene.objects],
                "arena": [scene.arena_size_x, scene.arena_size_y],
                "floor": {"size": [arena[0].box_size.x, arena[0].box_size.y],
@@ -240,7 +251,7 @@ def transform_point(data, frame, p):
     return p
 
 
-def check_telesim(data_path, png, camera_name):
+def check_telesim(data_path, png, camera_name, where="telesim"):
     data = json.load(open(data_path))
     w, h, raw = read_png(png)
     cam = next(c for c in data["cameras"] if c["name"] == camera_name)
@@ -253,9 +264,9 @@ def check_telesim(data_path, png, camera_name):
         d = [x - origin[0], y - origin[1], z - origin[2]]
         cx, cy, cz = (sum(a * b for a, b in zip(d, e)) for e in (ex, ey, ez))
         return cam["fx"] * cx / cz + cam["cx"], cam["fy"] * cy / cz + cam["cy"]
-    print("telesim_view %s %dx%d, camera at (%.2f, %.2f, %.2f)" % (camera_name, w, h, *origin))
+    print("%s %s %dx%d, camera at (%.2f, %.2f, %.2f)" % (where, camera_name, w, h, *origin))
     scale = cam["fx"] / max(0.1, origin[2])
-    return report(check_bodies(data, w, h, raw, project, scale, "telesim"))
+    return report(check_bodies(data, w, h, raw, project, scale, where))
 
 
 def report(failures):
@@ -278,6 +289,6 @@ if __name__ == "__main__":
     elif command == "rviz":
         sys.exit(check_rviz(sys.argv[2], sys.argv[3]))
     elif command == "telesim":
-        sys.exit(check_telesim(sys.argv[2], sys.argv[3], sys.argv[4]))
+        sys.exit(check_telesim(*sys.argv[2:6]))
     else:
         sys.exit(__doc__)

@@ -228,6 +228,8 @@ class Runner {
     pnh_.param("startup_timeout", startup_timeout_, startup_timeout_);
     std::string hosts;
     pnh_.param("hosts", hosts, hosts);
+    pnh_.param("web", web_, web_);
+    pnh_.param("web_port", web_port_, web_port_);
     // roslaunch starts nodes in ROS_HOME: relative paths are the launching shell's (~cwd).
     std::string cwd;
     pnh_.param("cwd", cwd, cwd);
@@ -338,8 +340,13 @@ class Runner {
         "database:=" + run_dir_ + "/knowledge.db", "seed:=" + std::to_string(spec_.seed), "run_dir:=" + run_dir_,
         "clock_mode:=" + spec_.clock, "record:=" + record, "record_images:=" + images,
         "record_compression:=" + spec_.recording.compression, "parameters:=" + parameters_file_};
-    argv.insert(argv.end(), host_arguments_.begin(), host_arguments_.end());
-    return spawn(argv, run_dir_ + "/launch.log", {"ROS_LOG_DIR=" + run_dir_ + "/ros_log"});
+    std::vector<std::string> args = argv;
+    args.insert(args.end(), host_arguments_.begin(), host_arguments_.end());
+    if (web_) {  // watch it in a browser (WEBBRIDGE)
+      args.push_back("web:=true");
+      args.push_back("web_port:=" + std::to_string(web_port_));
+    }
+    return spawn(args, run_dir_ + "/launch.log", {"ROS_LOG_DIR=" + run_dir_ + "/ros_log"});
   }
 
   int runPhases() {
@@ -494,6 +501,8 @@ class Runner {
       code_version_, last_goal_text_;
   std::vector<std::string> host_arguments_;  // xpersif.launch sim_host:=... (~hosts)
   double startup_timeout_ = 180.0;
+  bool web_ = false;      // ~web: the system with WEBBRIDGE (web:=true), on ~web_port
+  int web_port_ = 8765;
   pid_t launch_ = -1;
   bool owns_run_dir_ = false;
   std::chrono::steady_clock::time_point started_;

@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The browser viewer as a person sees it (issue 18): xpersif.launch web:=true headless on a private master, a short
+# run in the background; once the run is at experiment 2 XPERSim is paused (test/view_check.py shot) and Debian's
+# chromium, headless and driven by playwright-core (web/test/browser_check.mjs), opens the page the bridge
+# serves. The page's view through the scene's overhead camera must show the robot and every object in its own
+# colour where ground truth says (projected through that camera, as for telesim_view), and the progress panel the
+# loop's current experiment number. Objects, colours and cameras come from the scene, so any world works:
+# test/web_browser.sh [WORLD_FILE]. The images are kept in ${WEB_SCREENSHOT_DIR:-/tmp/xpersif_web_screenshot}.
+set -euo pipefail
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+world=$(realpath "${1:-$repo/worlds/default.yaml}")
+if [[ ! -d "$repo/web/node_modules/three" || ! -d "$repo/web/node_modules/playwright-core" ]]; then
+  echo "FAIL: web/node_modules is missing: run 'npm ci' in web/ (bash scripts/setup.sh does it)"
+  exit 1
+fi
+XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
+work=$(mktemp -d)
+keep=${WEB_SCREENSHOT_DIR:-/tmp/xpersif_web_screenshot}
+mkdir -p "$keep" "$work/page"
+export ROS_LOG_DIR=$work/ros_log
+stop() {  # PID: SIGINT, then harder if roslaunch does not go
+  for signal in INT INT TERM KILL; do
+    kill -"$signal" "$1" 2>/dev/null || break
+    for _ in $(seq 1 50); do
+      kill -0 "$1" 2>/dev/null || break 2
+      sleep 0.2
+    done
+  done
+  wait "$1" 2>/dev/null || true
+}
+cleanup() {
+  [[ -n "${run:-}" ]] && stop "$run"
+  [[ -n "${main:-}" ]] && stop "$main"
+  rm -rf "$work"
+}
+trap cleanup EXIT
+port=${ROS_MASTER_URI##*:}
+
+roslaunch -p "$port" xpersif xpersif.launch world:="$world" database:="$work/knowledge.db" run_dir:="$work/run" \
+  web:=true web_port:=0 >"$work/main.log" 2>&1 &
+main=$!
+if ! xpersif wait --timeout 180 /xpersif/loop_model >"$work/wait.log" 2>&1; then
+  cat "$work/wait.log"; tail -30 "$work/main.log"
+  echo "FAIL: the main job did not come up"; exit 1
+fi
+web_port=""
+for _ in $(seq 1 60); do
+  web_port=$(rosparam get /xpersif/web_bridge/bound_port 2>/dev/null || true)
+  [[ "$web_port" =~ ^[0-9]+$ && "$web_port" != 0 ]] && break
+  sleep 1
+done
+if ! [[ "$web_port" =~ ^[0-9]+$ ]]; then
+  tail -30 "$work/main.log"; echo "FAIL: the web bridge never listened"; exit 1
+fi
+url="http://127.0.0.1:$web_port/"
+echo "the bridge serves $url"
+camera=$(/usr/bin/python3 "$repo/test/view_check.py" camera)
+
+# XPERSim is paused once the run's experiment 2 is under way; the page is opened then.
+XPERSIF_SHOT_EXPERIMENT=2 /usr/bin/python3 "$repo/test/view_check.py" shot "$work/truth.json" - &
+shot=$!
+sleep 3
+xpersif run webshot --experiments 3 --goals 0 --design random >"$work/run.log" 2>&1 &
+run=$!
+wait "$shot"
+sim_time=$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["time"])' "$work/truth.json")
+status=0
+(cd "$repo/web" && node test/browser_check.mjs "$url" "$camera" "$sim_time" "$work/page") || status=1
+rosservice call /xpersif/xpersim/resume >/dev/null
+cp "$work/truth.json" "$keep/truth.json"
+cp "$work/page/"*.png "$work/page/page.json" "$keep/" 2>/dev/null || true
+
+if ((status == 0)); then
+  /usr/bin/python3 "$repo/test/view_check.py" telesim "$work/truth.json" "$work/page/$camera.png" "$camera" web ||
+    status=1
+  # The progress panel shows the loop's experiment number at the time of the shot.
+  /usr/bin/python3 - "$work/truth.json" "$work/page/page.json" <<'EOF' || status=1
+import json, sys
+truth, page = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+want, got = truth["experiment"], page["experiment"]
+print("progress panel: experiment %r; LOOPMODEL's progress: experiment %r" % (got, want))
+if want is None or str(want) != got:
+    sys.exit("FAIL: the progress panel does not show the current experiment number")
+EOF
+fi
+for _ in $(seq 1 90); do kill -0 "$run" 2>/dev/null || break; sleep 1; done
+echo "the run, paused for the shot (not judged here): $(tail -1 "$work/run.log")"
+((status == 0)) && echo "2 passed, 0 failed" || echo "FAIL: see $keep"
+exit $status
