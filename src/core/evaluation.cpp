@@ -50,4 +50,15 @@ int experimentsToReach(const LearningCurve& curve, double error) {
   return -1;
 }
 
+long designedCount(const std::string& parameters_json) {
+  const std::string key = "\"experiments\":";
+  const auto at = parameters_json.find(key);
+  if (at == std::string::npos) return -1;
+  try {
+    return std::stol(parameters_json.substr(at + key.size()));
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
 }  // namespace xpersif::core

@@ -39,18 +39,6 @@ std::vector<std::string> split(const std::string& text) {
   return out;
 }
 
-/// "experiments" of a run's parameters (JSON written by LOOPMODEL), or -1.
-long designedCount(const std::string& parameters_json) {
-  const std::string key = "\"experiments\":";
-  const auto at = parameters_json.find(key);
-  if (at == std::string::npos) return -1;
-  try {
-    return std::stol(parameters_json.substr(at + key.size()));
-  } catch (const std::exception&) {
-    return -1;
-  }
-}
-
 void plot(const std::vector<LearningCurve>& curves, const std::string& path) {
   const int w = 720, h = 440, left = 70, right = 20, top = 30, bottom = 50;
   cv::Mat image(h, w, CV_8UC3, cv::Scalar(255, 255, 255));

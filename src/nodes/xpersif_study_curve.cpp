@@ -24,18 +24,6 @@ using namespace xpersif::core;
 
 namespace {
 
-/// "experiments" of a run's parameters (JSON written by LOOPMODEL), or -1.
-long designedCount(const std::string& parameters_json) {
-  const std::string key = "\"experiments\":";
-  const auto at = parameters_json.find(key);
-  if (at == std::string::npos) return -1;
-  try {
-    return std::stol(parameters_json.substr(at + key.size()));
-  } catch (const std::exception&) {
-    return -1;
-  }
-}
-
 /// The latest run called @p name.
 RunInfo latestRun(KnowledgeBase& kb, const std::string& name, const std::string& database) {
   std::map<std::string, RunInfo> latest;

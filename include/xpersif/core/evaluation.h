@@ -39,4 +39,7 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
 /// The first k at which the curve is at or below @p error, or -1.
 int experimentsToReach(const LearningCurve& curve, double error);
 
+/// "experiments" of a run's parameters (JSON written by LOOPMODEL), or -1 (the report and the study read it).
+long designedCount(const std::string& parameters_json);
+
 }  // namespace xpersif::core
