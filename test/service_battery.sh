@@ -33,12 +33,19 @@ fail() { echo "FAIL: $*" >&2; tail -30 "$T/launch.log" >&2; exit 1; }
 
 roslaunch -p "$PORT" xpersif xpersif.launch database:="$T/knowledge.db" run_dir:="$T/run" >"$T/launch.log" 2>&1 &
 LAUNCH_PID=$!
+# The components the launch brings up: the configured ones less LOOPMODEL's ~omit (web:=false leaves out WEBBRIDGE).
+omit="[]"
+for _ in $(seq 120); do
+  omit=$(rosparam get /xpersif/loop_model/omit 2>/dev/null) && break
+  sleep 0.5
+done
 components=$(/usr/bin/python3 -c '
 import yaml, sys
+omit = set(yaml.safe_load(sys.argv[1]) or [])
 names = []
-for f in sys.argv[1:]:
-    names += [c["name"] for c in yaml.safe_load(open(f))["components"]]
-print(" ".join("/xpersif/" + n for n in names))' "$HERE/config/loop.yaml" "$HERE/config/embodiment.yaml")
+for f in sys.argv[2:]:
+    names += [c["name"] for c in yaml.safe_load(open(f))["components"] if c["name"] not in omit]
+print(" ".join("/xpersif/" + n for n in names))' "$omit" "$HERE/config/loop.yaml" "$HERE/config/embodiment.yaml")
 xpersif wait --timeout 240 /xpersif/loop_model $components >"$T/wait.log" 2>&1 || { cat "$T/wait.log" >&2; fail "the system did not come up"; }
 echo "system up: $(echo "$components" | wc -w) components ACTIVE"
 started=$SECONDS

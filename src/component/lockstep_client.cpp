@@ -35,6 +35,15 @@ bool LockstepClient::joined() const {
 }
 
 LockstepClient::Tick LockstepClient::join(double timeout) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    left_ = false;
+  }
+  std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+  return joinLocked(timeout, lock);
+}
+
+LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock<std::mutex>& lock) {
   if (!enabled_) throw std::runtime_error("the simulator does not run in lockstep");
   const std::string service = xpersim_ + "/lockstep";
   if (!ros::service::waitForService(service, ros::Duration(timeout))) {
@@ -51,8 +60,11 @@ LockstepClient::Tick LockstepClient::join(double timeout) {
   if (!ros::service::call(service, call) || !call.response.success) {
     throw std::runtime_error("cannot join the lockstep clock: " + call.response.message);
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  lock.lock();
+  if (call.response.clock != clock_) latest_act_.reset();  // ticks of a forgotten clock mean nothing now
   joined_ = true;
+  clock_ = call.response.clock;
+  joined_at_ = call.response.tick;
   Tick now{call.response.tick, call.response.phase, call.response.stamp, {}, false, 0.0};
   if (!sensor_) {
     // An actor first acts in the ACT phase after a SENSE phase (core/lockstep.h): the current tick's when it
@@ -66,6 +78,7 @@ LockstepClient::Tick LockstepClient::join(double timeout) {
 void LockstepClient::leave() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    left_ = true;
     if (!joined_) return;
     joined_ = false;
   }
@@ -151,18 +164,50 @@ void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
   Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time};
   std::function<void(const Tick&)> callback;
+  bool rejoin = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!joined_) return;
-    // Dropped for answering too late: the simulator ignores its reports until it joins again.
-    if (std::find(message->participants.begin(), message->participants.end(), name_) == message->participants.end()) {
-      ROS_WARN_THROTTLE(5.0, "%s: dropped from the lockstep clock by tick %lu (it answered too late)", name_.c_str(),
-                        static_cast<unsigned long>(message->tick));
+    if (!joined_ || message->clock < clock_) return;  // not taking part, or a tick of a clock that is gone
+    const bool listed = std::find(message->participants.begin(), message->participants.end(), name_) !=
+                        message->participants.end();
+    // A newer clock has forgotten everyone; a tick after the join that does not list it means it was dropped.
+    const bool newer_clock = message->clock > clock_;
+    if (newer_clock || (!listed && message->tick > joined_at_)) {
+      ROS_WARN("%s: %s at tick %lu; %s", name_.c_str(),
+               newer_clock ? "the lockstep clock was restarted (a new simulator or a new configuration)"
+                           : "dropped from the lockstep clock (it answered too late)",
+               static_cast<unsigned long>(message->tick), sensor_ ? "joining again" : "its command ends");
+      joined_ = false;
+      rejoin = sensor_ && !rejoining_;
+      rejoining_ = rejoining_ || rejoin;
+    } else {
+      if (message->phase == LockstepTick::ACT) latest_act_ = tick;
+      if (sensor_ && message->phase == LockstepTick::SENSE && listed) callback = on_tick_;
     }
-    if (message->phase == LockstepTick::ACT) latest_act_ = tick;
-    if (sensor_ && message->phase == LockstepTick::SENSE) callback = on_tick_;
   }
   ticked_.notify_all();
+  if (rejoin) {
+    // On this client's own tick thread: a join is one service call, and no tick is due from a sensor that has
+    // not joined. A failure (the simulator is still coming up) is retried at the next tick heard.
+    try {
+      std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+      joinLocked(10.0, lock);
+      rejoining_ = false;
+      const bool left = left_;
+      lock.unlock();
+      if (left) {
+        leave();  // left while the join was under way
+      } else {
+        ROS_WARN("%s: joined the lockstep clock again", name_.c_str());
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      rejoining_ = false;
+      joined_ = !left_;  // hear the next tick, and try again from it
+      ROS_WARN_THROTTLE(5.0, "%s: %s", name_.c_str(), e.what());
+    }
+    return;
+  }
   if (callback) callback(tick);
 }
 

@@ -8,6 +8,7 @@
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <algorithm>
 #include <chrono>
 #include <set>
 
@@ -154,6 +155,7 @@ void XPerSim::declareOperations() {
         } else {
           if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
         }
+        response.clock = lockstep_clock_;
         response.tick = lockstep_->tick();
         response.phase = lockstep_->phase() == core::LockstepCoordinator::Phase::Sense ? LockstepTick::SENSE
                                                                                         : LockstepTick::ACT;
@@ -304,6 +306,8 @@ void XPerSim::onConfigure() {
   idle_period_ = idle_period;
   idle_time_ = 0;
   lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
+  // Wall nanoseconds, kept increasing: a participant that hears a larger id knows it was forgotten and joins again.
+  lockstep_clock_ = std::max(lockstep_clock_ + 1, static_cast<std::uint64_t>(ros::WallTime::now().toNSec()));
   trace_.reset();
   if (!trace_file.empty()) {
     trace_ = std::make_unique<std::ofstream>(trace_file, std::ios::app);
@@ -548,6 +552,7 @@ void XPerSim::stopThread() {
 
 void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh) {
   LockstepTick tick;
+  tick.clock = lockstep_clock_;
   tick.tick = lockstep_->tick();
   tick.phase = phase;
   tick.stamp = ros::Time(simTimeLocked());

@@ -26,6 +26,8 @@
 #include "xpersif/Lockstep.h"
 #include "xpersif/LockstepDone.h"
 #include "xpersif/LockstepTick.h"
+#include "xpersif/Transition.h"
+#include "xpersif/component/lockstep_client.h"
 
 extern char** environ;
 
@@ -408,4 +410,60 @@ int main(int argc, char** argv) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
   return RUN_ALL_TESTS();
+}
+
+// A sensor built on the components' own LockstepClient outlives its clock: XPERSim configured again (what a
+// supervisor does after a simulator's manager is respawned) starts a newer clock that knows no participant. The
+// sensor hears a tick of the newer clock, joins again by itself, and is waited for once more (issue 17: after the
+// sim host's managers were killed, OBSERVATION reported ticks the new clock did not count it in, forever).
+TEST_F(LockstepHungTest, ASensorJoinsANewClockByItself) {
+  ros::NodeHandle pnh("~");
+  xpersif::LockstepClient sensor(nh_, pnh, "rejoining_sensor", true);
+  ASSERT_TRUE(sensor.enabled());
+  std::mutex mutex;
+  int reports = 0;
+  sensor.onTick([&](const xpersif::LockstepClient::Tick& t) {
+    sensor.report(t, false, false);
+    std::lock_guard<std::mutex> lock(mutex);
+    ++reports;
+  });
+  sensor.join();
+  GoodActor good(nh_, "good_actor_2");
+  ASSERT_NO_FATAL_FAILURE(good.join());
+  const auto first = ticks_.waitForFirst(
+      [&](const LockstepTick& t) { return t.phase == LockstepTick::ACT && lists(t, sensor.name()) && lists(t, good.name()); },
+      30.0);
+  ASSERT_TRUE(first) << "the sensor and the actor are not both on the clock";
+  const std::uint64_t old_clock = first->message.clock;
+  good.leave();
+
+  xpersif::Transition deactivate, configure, activate;
+  ASSERT_TRUE(ros::service::call(kSim + "/deactivate", deactivate) && deactivate.response.success)
+      << deactivate.response.message;
+  ASSERT_TRUE(ros::service::call(kSim + "/configure", configure) && configure.response.success)
+      << configure.response.message;
+  ASSERT_TRUE(ros::service::call(kSim + "/activate", activate) && activate.response.success)
+      << activate.response.message;
+
+  // The new clock's ticks list the sensor again, without anyone telling it to join; with an actor that wants
+  // time, the sensor's reports keep the clock going (it is waited for, and answers).
+  GoodActor again(nh_, "good_actor_3");
+  ASSERT_NO_FATAL_FAILURE(again.join());
+  const auto rejoined = ticks_.waitForFirst(
+      [&](const LockstepTick& t) { return t.clock > old_clock && lists(t, sensor.name()); }, 30.0);
+  ASSERT_TRUE(rejoined) << "the sensor did not join the new clock";
+  int before = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    before = reports;
+  }
+  const std::uint64_t from = rejoined->message.tick;
+  EXPECT_TRUE(ticks_.waitForFirst(
+      [&](const LockstepTick& t) { return t.clock > old_clock && t.tick >= from + 20 && lists(t, sensor.name()); },
+      30.0))
+      << "the new clock did not go on with the sensor on it";
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_GT(reports, before) << "the sensor is listed but does not report";
+  EXPECT_FALSE(dropEvent(sensor.name(), 0.0)) << "the sensor was dropped by the new clock";
+  again.leave();
 }

@@ -9,6 +9,12 @@
  * (cameras) join once and report each SENSE tick from onTick()'s callback. Waiting is on a condition variable
  * woken by the tick subscriber: nothing polls. Ticks are heard on a thread of the client's own, so a busy
  * nodelet manager (every worker in a long callback) never delays a participant's report.
+ *
+ * Forgotten participants: a tick of a newer clock (the simulator's manager restarted, or XPERSim was configured
+ * again) or one that no longer lists this participant (dropped for answering too late) means the simulator no
+ * longer waits for it. A sensor joins again at once, from its tick thread, with a warning; an actor's wait ends
+ * (reportAndWait() returns nothing), so its command fails with a sentence instead of driving a robot that no
+ * longer listens.
  */
 #pragma once
 
@@ -75,6 +81,8 @@ class LockstepClient {
 
  private:
   void onTickMessage(const LockstepTick::ConstPtr& message);
+  /// The join call itself; @p lock held on return. Throws as join() does.
+  Tick joinLocked(double timeout, std::unique_lock<std::mutex>& lock);
 
   ros::CallbackQueue tick_queue_;  // first: destroyed last
   ros::NodeHandle nh_;
@@ -83,6 +91,10 @@ class LockstepClient {
   mutable std::mutex mutex_;
   std::condition_variable ticked_;
   bool joined_ = false;
+  std::uint64_t clock_ = 0;         // the clock joined (LockstepTick.clock)
+  std::uint64_t joined_at_ = 0;     // the tick it was joined at: older ticks may not list it yet
+  bool rejoining_ = false;          // a sensor joins again from its tick thread
+  bool left_ = false;               // leave() was called: a rejoin under way must not stay joined
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
   std::function<void(const Tick&)> on_tick_;
   ros::Publisher done_pub_;

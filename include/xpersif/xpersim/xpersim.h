@@ -96,6 +96,7 @@ class XPerSim : public Component {
   std::string halted_;  ///< why the physics halted (a blow-up that putting bodies at rest did not resolve), or ""
   // Lockstep mode; guarded by world_mutex_. lockstep_wake_ wakes the coordinator and the step operation.
   std::unique_ptr<core::LockstepCoordinator> lockstep_;
+  std::uint64_t lockstep_clock_ = 0;  // the coordinator's id: later coordinators (a restart, a reconfigure) have larger ones
   std::unique_ptr<std::ofstream> trace_;
   double tick_period_ = 0.02;
   int steps_per_tick_ = 10;

@@ -1,0 +1,239 @@
+#!/usr/bin/env python3
+"""Bad bytes on topic connections (issue 19, item 2): a forged publisher for every topic the system subscribes to.
+
+Against a running main system (test/service_battery.sh brings it up), for every topic that a node under the
+namespace subscribes to, this script registers itself with the master as one more publisher of the topic, serves
+the subscribers' requestTopic (XML-RPC) and accepts their TCPROS connections, answers their header as a real
+publisher would (the type's md5sum and definition) and then sends, one case per registration:
+
+  garbage    a length prefix and 4 KiB of random bytes (the message does not deserialize)
+  truncated  a length prefix that promises 64 KiB, 16 bytes, and the connection closed
+  oversized  a length prefix of 2^31 bytes (over roscpp's 1 GB limit: it drops the connection)
+  forged     a well-formed message of the right length whose first array (or string) declares 2^32-1 elements
+             (roscpp resizes a vector before it checks the bytes are there: only element types of 8 bytes or more
+             are forged, whose resize the kernel refuses at once on a 24 GiB machine with heuristic overcommit; see
+             the README's Security section for the smaller ones)
+
+After each topic's cases it checks that every component still answers get_state, and at the end that XPERSim's
+world (ground truth) and the knowledge base are unchanged. Prints a table; exits 1 when a check failed.
+
+  topic_garbage.py --kb FILE [--ns /xpersif] [--out FILE]
+"""
+import argparse
+import io
+import os
+import socket
+import struct
+import sys
+import threading
+import time
+from xmlrpc.server import SimpleXMLRPCServer
+
+import genpy
+import rosgraph
+import roslib.message
+import rospy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from service_battery import Battery  # noqa: E402 - the same state hashes and liveness checks
+
+CASES = ("garbage", "truncated", "oversized", "forged")
+HUGE = 0xFFFFFFFF
+NARROW_ELEMENTS = {"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "string"}
+
+
+def header_bytes(fields):
+    body = b""
+    for key, value in fields.items():
+        item = ("%s=%s" % (key, value)).encode()
+        body += struct.pack("<I", len(item)) + item
+    return struct.pack("<I", len(body)) + body
+
+
+def read_header(conn):
+    size = struct.unpack("<I", conn.recv(4, socket.MSG_WAITALL))[0]
+    data = conn.recv(size, socket.MSG_WAITALL)
+    fields, i = {}, 0
+    while i < len(data):
+        n = struct.unpack("<I", data[i:i + 4])[0]
+        key, _, value = data[i + 4:i + 4 + n].decode(errors="replace").partition("=")
+        fields[key] = value
+        i += 4 + n
+    return fields
+
+
+def forged_message(msg_class):
+    """The type's default message with its first top-level array of wide elements declaring HUGE of them, as
+    (bytes, field name), or None when it has no such array."""
+    for name, typ in zip(msg_class.__slots__, msg_class._slot_types):
+        if not typ.endswith("[]") or typ[:-2] in NARROW_ELEMENTS:
+            continue  # not a variable array, or narrow elements whose resize the kernel would grant
+        element = typ[:-2]
+        if element == "time":
+            sample = genpy.Time()
+        elif element == "duration":
+            sample = genpy.Duration()
+        elif "/" in element or element == "Header":
+            sample = roslib.message.get_message_class("std_msgs/Header" if element == "Header" else element)()
+        else:
+            sample = 0
+        empty, one = msg_class(), msg_class()
+        setattr(one, name, [sample])
+        serialized = []
+        for msg in (empty, one):
+            buf = io.BytesIO()
+            msg.serialize(buf)
+            serialized.append(bytearray(buf.getvalue()))
+        a, b = serialized
+        offset = next(i for i in range(len(a)) if a[i] != b[i])  # the array's length: 0 in one, 1 in the other
+        a[offset:offset + 4] = struct.pack("<I", HUGE)
+        return bytes(a), name
+    return None
+
+
+class ForgedPublisher:
+    """One registration as a publisher of @p topic that answers every subscriber with @p case."""
+
+    def __init__(self, master, topic, topic_type, case):
+        self.master, self.topic, self.type, self.case = master, topic, topic_type, case
+        self.msg_class = roslib.message.get_message_class(topic_type)
+        self.caller_id = "/xpersif_topic_garbage_%d" % os.getpid()
+        self.connections = 0
+        self.sent = 0
+        self.listener = socket.socket()
+        self.listener.bind(("127.0.0.1", 0))
+        self.listener.listen(16)
+        self.rpc = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False, allow_none=True)
+        for name, fn in (("requestTopic", self.request_topic), ("getPid", lambda c: [1, "", os.getpid()]),
+                         ("getBusInfo", lambda c: [1, "", []]), ("shutdown", lambda c, m="": [1, "", 0]),
+                         ("publisherUpdate", lambda c, t, p: [1, "", 0]),
+                         ("paramUpdate", lambda c, k, v: [1, "", 0])):
+            self.rpc.register_function(fn, name)
+        self.uri = "http://127.0.0.1:%d/" % self.rpc.server_address[1]
+        self.stop = False
+        threading.Thread(target=self.rpc.serve_forever, daemon=True).start()
+        threading.Thread(target=self.accept, daemon=True).start()
+
+    def request_topic(self, caller_id, topic, protocols):
+        return [1, "", ["TCPROS", "127.0.0.1", self.listener.getsockname()[1]]]
+
+    def accept(self):
+        self.listener.settimeout(0.2)
+        while not self.stop:
+            try:
+                conn, _ = self.listener.accept()
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            threading.Thread(target=self.serve, args=(conn,), daemon=True).start()
+
+    def serve(self, conn):
+        try:
+            conn.settimeout(5)
+            read_header(conn)
+            self.connections += 1
+            conn.sendall(header_bytes({"callerid": self.caller_id, "topic": self.topic, "type": self.type,
+                                       "md5sum": self.msg_class._md5sum, "latching": "0",
+                                       "message_definition": self.msg_class._full_text}))
+            if self.case == "garbage":
+                payload = os.urandom(4096)
+                conn.sendall(struct.pack("<I", len(payload)) + payload)
+            elif self.case == "truncated":
+                conn.sendall(struct.pack("<I", 65536) + os.urandom(16))
+            elif self.case == "oversized":
+                conn.sendall(struct.pack("<I", 1 << 31) + os.urandom(64))
+            elif self.case == "forged":
+                body, _ = forged_message(self.msg_class)
+                conn.sendall(struct.pack("<I", len(body)) + body)
+            self.sent += 1
+            time.sleep(0.5)  # let the subscriber read it before the connection closes
+        except OSError:
+            pass
+        finally:
+            conn.close()
+
+    def run(self, subscribers, timeout=10.0):
+        code, msg, _ = self.master.registerPublisher(self.caller_id, self.topic, self.type, self.uri)
+        if code != 1:
+            return "the master refused the registration: %s" % msg
+        deadline = time.time() + timeout
+        while self.sent < subscribers and time.time() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.7)
+        self.master.unregisterPublisher(self.caller_id, self.topic, self.uri)
+        self.stop = True
+        self.rpc.shutdown()
+        self.listener.close()
+        return ""
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--kb", required=True)
+    parser.add_argument("--ns", default="/xpersif")
+    parser.add_argument("--out", default="/tmp/xpersif_topic_garbage.md")
+    args = parser.parse_args()
+    rospy.init_node("xpersif_topic_garbage", anonymous=True, disable_signals=True)
+    battery = Battery(args.ns, args.kb, args.out, None)
+    master = rosgraph.Master(rospy.get_name())
+    components = battery.components()
+    before = battery.state()
+
+    _, subscribed, _ = master.getSystemState()
+    types = dict(master.getTopicTypes())
+    ns = args.ns.rstrip("/") + "/"
+    targets = []
+    for topic, nodes in sorted(subscribed):
+        ours = [n for n in nodes if n.startswith(ns)]
+        if not ours or topic not in types or types[topic] == "*" or topic == "/rosout":
+            continue
+        try:
+            roslib.message.get_message_class(types[topic])
+        except Exception:  # noqa: BLE001 - a type this python cannot load is skipped, and said so
+            print("skipped %s: type %s not loadable" % (topic, types[topic]))
+            continue
+        targets.append((topic, types[topic], len(ours)))
+
+    rows, failures = [], []
+    for topic, topic_type, subscribers in targets:
+        forged = forged_message(roslib.message.get_message_class(topic_type))
+        for case in CASES:
+            if case == "forged" and forged is None:
+                rows.append((topic, topic_type, case, "-", "no array of 8-byte or wider elements: not sent"))
+                continue
+            publisher = ForgedPublisher(master, topic, topic_type, case)
+            why = publisher.run(subscribers)
+            if why:
+                failures.append("%s %s: %s" % (topic, case, why))
+            what = "field %s declares %d elements" % (forged[1], HUGE) if case == "forged" else "sent"
+            rows.append((topic, topic_type, case, "%d of %d" % (publisher.sent, subscribers), why or what))
+        dead = [c for c in components if battery.alive(c) is None]
+        if dead:
+            failures.append("after %s: %s no longer answer get_state" % (topic, ", ".join(dead)))
+    after = battery.state()
+    if before != after:
+        failures.append("the world or the knowledge base changed: %s -> %s" % (before, after))
+    sent = sum(1 for r in rows if r[3] != "-")
+    connected = sum(int(r[3].split()[0]) for r in rows if r[3] != "-")
+
+    with open(args.out, "w") as out:
+        out.write("| topic | type | case | connections served | what was sent |\n|---|---|---|---|---|\n")
+        for row in rows:
+            out.write("| %s |\n" % " | ".join(str(c) for c in row))
+    summary = ("%d topics, %d forged publishers, %d subscriber connections served bad bytes; every component "
+               "answers; world and knowledge base %s; %d failures" %
+               (len(targets), sent, connected, "unchanged" if before == after else "CHANGED", len(failures)))
+    print(summary)
+    with open(args.out, "a") as out:
+        out.write("\n" + summary + "\n")
+    for f in failures:
+        print("FAIL: " + f, file=sys.stderr)
+    if connected == 0:
+        print("FAIL: no subscriber connected to a forged publisher", file=sys.stderr)
+        return 1
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
