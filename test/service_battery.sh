@@ -3,7 +3,8 @@
 # launch/xpersif.launch headless on a master of its own (lockstep, the default world, a fresh knowledge base),
 # waits until every component is ACTIVE, runs test/service_battery.py against it (see its docstring: what is sent,
 # what is checked) and stops the system. The table of inputs and outcomes goes to $OUT
-# (default /tmp/xpersif_service_battery.md; bench/reliability.md keeps the last one).
+# (default /tmp/xpersif_service_battery.md; bench/reliability.md keeps the last one). Then bad bytes on every
+# topic the system subscribes to (test/topic_garbage.py; its table to $TOPIC_OUT).
 #   bash test/service_battery.sh BUILD_DIR [COMPONENT]
 set -euo pipefail
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -52,6 +53,10 @@ started=$SECONDS
 code=0
 /usr/bin/python3 "$HERE/test/service_battery.py" --kb "$T/knowledge.db" --out "$OUT" ${ONLY:+--only "$ONLY"} || code=$?
 echo "battery: $((SECONDS - started)) s; table in $OUT"
+# Bad bytes on every topic connection: a forged publisher per subscribed topic (see test/topic_garbage.py).
+started=$SECONDS
+/usr/bin/python3 "$HERE/test/topic_garbage.py" --kb "$T/knowledge.db" --out "${TOPIC_OUT:-/tmp/xpersif_topic_garbage.md}" || code=1
+echo "topic garbage: $((SECONDS - started)) s; table in ${TOPIC_OUT:-/tmp/xpersif_topic_garbage.md}"
 kill -0 "$LAUNCH_PID" 2>/dev/null || fail "roslaunch ended during the battery"
 grep -n "process has died\|terminate called\|Segmentation" "$T/launch.log" && fail "a process died during the battery"
 exit "$code"

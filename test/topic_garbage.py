@@ -27,6 +27,7 @@ import struct
 import sys
 import threading
 import time
+import xmlrpc.client
 from xmlrpc.server import SimpleXMLRPCServer
 
 import genpy
@@ -94,8 +95,9 @@ def forged_message(msg_class):
 class ForgedPublisher:
     """One registration as a publisher of @p topic that answers every subscriber with @p case."""
 
-    def __init__(self, master, topic, topic_type, case):
-        self.master, self.topic, self.type, self.case = master, topic, topic_type, case
+    def __init__(self, topic, topic_type, case):
+        self.master = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())  # the master's API, as this caller
+        self.topic, self.type, self.case = topic, topic_type, case
         self.msg_class = roslib.message.get_message_class(topic_type)
         self.caller_id = "/xpersif_topic_garbage_%d" % os.getpid()
         self.connections = 0
@@ -189,28 +191,43 @@ def main():
         if not ours or topic not in types or types[topic] == "*" or topic == "/rosout":
             continue
         try:
-            roslib.message.get_message_class(types[topic])
+            loadable = roslib.message.get_message_class(types[topic]) is not None
         except Exception:  # noqa: BLE001 - a type this python cannot load is skipped, and said so
-            print("skipped %s: type %s not loadable" % (topic, types[topic]))
+            loadable = False
+        if not loadable:
+            print("skipped %s: its type %s cannot be loaded here" % (topic, types[topic]))
             continue
         targets.append((topic, types[topic], len(ours)))
 
+    # One round per case: a forged publisher for every topic at once, then every component asked if it lives.
     rows, failures = [], []
-    for topic, topic_type, subscribers in targets:
-        forged = forged_message(roslib.message.get_message_class(topic_type))
-        for case in CASES:
-            if case == "forged" and forged is None:
+    forged = {topic: forged_message(roslib.message.get_message_class(t)) for topic, t, _ in targets}
+    for case in CASES:
+        round_targets = [t for t in targets if case != "forged" or forged[t[0]] is not None]
+        for topic, topic_type, _ in targets:
+            if (topic, topic_type, _) not in round_targets:
                 rows.append((topic, topic_type, case, "-", "no array of 8-byte or wider elements: not sent"))
-                continue
-            publisher = ForgedPublisher(master, topic, topic_type, case)
-            why = publisher.run(subscribers)
+        publishers = [(t, ForgedPublisher(t[0], t[1], case)) for t in round_targets]
+        outcomes = {}
+        threads = [threading.Thread(target=lambda t=t, p=p: outcomes.__setitem__(t[0], p.run(t[2])))
+                   for t, p in publishers]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        for (topic, topic_type, subscribers), publisher in publishers:
+            why = outcomes.get(topic, "no outcome")
             if why:
                 failures.append("%s %s: %s" % (topic, case, why))
-            what = "field %s declares %d elements" % (forged[1], HUGE) if case == "forged" else "sent"
-            rows.append((topic, topic_type, case, "%d of %d" % (publisher.sent, subscribers), why or what))
+            what = "field %s declares %d elements" % (forged[topic][1], HUGE) if case == "forged" else "sent"
+            rows.append((topic, topic_type, case, "%d (%d nodes)" % (publisher.sent, subscribers), why or what))
         dead = [c for c in components if battery.alive(c) is None]
+        print("%s: %d forged publishers, %d connections served; %s" %
+              (case, len(publishers), sum(p.sent for _, p in publishers),
+               "every component answers" if not dead else "DEAD: " + ", ".join(dead)))
         if dead:
-            failures.append("after %s: %s no longer answer get_state" % (topic, ", ".join(dead)))
+            failures.append("after the %s round: %s no longer answer get_state" % (case, ", ".join(dead)))
+    rows.sort()
     after = battery.state()
     if before != after:
         failures.append("the world or the knowledge base changed: %s -> %s" % (before, after))
@@ -218,7 +235,7 @@ def main():
     connected = sum(int(r[3].split()[0]) for r in rows if r[3] != "-")
 
     with open(args.out, "w") as out:
-        out.write("| topic | type | case | connections served | what was sent |\n|---|---|---|---|---|\n")
+        out.write("| topic | type | case | connections served (subscribing nodes) | what was sent |\n|---|---|---|---|---|\n")
         for row in rows:
             out.write("| %s |\n" % " | ".join(str(c) for c in row))
     summary = ("%d topics, %d forged publishers, %d subscriber connections served bad bytes; every component "
