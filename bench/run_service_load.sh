@@ -3,6 +3,8 @@
 # run, without and with N clients calling get_features (OBSERVATION) and get_robot_state (ROBOTMODEL) at RATE Hz
 # each (bench/service_load.cpp). Prints the loop's experiments per minute for each, and the clients' figures.
 #   bash bench/run_service_load.sh [EXPERIMENTS (12)] [CLIENTS ("0 100")] [RATE (50)]
+# CLOCK_MODE=realtime REAL_TIME_FACTOR=1: the loop paced by simulated time (a real robot's case) instead of by the CPU.
+# LOAD_NICE=19 runs the clients at the lowest CPU priority (they share the 2 cores with the loop here).
 # Build first: cmake --build build --target service_load
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -20,11 +22,11 @@ for clients in $loads; do
   set -u
   [ -x "$(command -v service_load)" ] || { echo "build service_load first: cmake --build build --target service_load" >&2; exit 1; }
   roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch database:="$work/$clients.db" run_dir:="$work/$clients" \
-    snapshot:=false >"$work/$clients.log" 2>&1 &
+    snapshot:=false clock_mode:="${CLOCK_MODE:-lockstep}" real_time_factor:="${REAL_TIME_FACTOR:-1}" >"$work/$clients.log" 2>&1 &
   launch=$!
   xpersif wait --timeout 180 /xpersif/loop_model >/dev/null
   if [ "$clients" -gt 0 ]; then
-    service_load --clients "$clients" --rate "$rate" --duration 100000 >"$work/load_$clients.txt" 2>&1 &
+    nice -n "${LOAD_NICE:-0}" service_load --clients "$clients" --rate "$rate" --duration 100000 >"$work/load_$clients.txt" 2>&1 &
     load=$!
     sleep 5  # the clients connected and calling before the campaign starts
   fi
@@ -38,7 +40,7 @@ for clients in $loads; do
     load=0
     cat "$work/load_$clients.txt"
   fi
-  grep -c "process has died" "$work/$clients.log" | sed 's/^/processes died: /'
+  echo "processes died: $(grep -c "process has died" "$work/$clients.log" || true)"
   kill -INT "$launch"
   wait "$launch" || true
   launch=0

@@ -18,7 +18,8 @@ fi
 
 # The browser viewer's npm packages (web/package-lock.json: three.js for the page, playwright-core for its test),
 # installed exactly as locked. Debian's nodejs may come without npm: then Debian's npm package.
-if [[ ! -d "$repo/web/node_modules/three" || ! -d "$repo/web/node_modules/playwright-core" ]]; then
+if [[ ! -d "$repo/web/node_modules/three" || ! -d "$repo/web/node_modules/playwright-core" ||
+      ! -d "$repo/web/node_modules/puppeteer-core" ]]; then
   if ! command -v npm >/dev/null; then
     sudo=""
     [[ $(id -u) -eq 0 ]] || sudo=sudo

@@ -1,34 +1,63 @@
-// The page in Debian's chromium, headless, driven by playwright-core (test/web_browser.sh):
+// The page in a browser, driven headless (test/web_browser.sh):
 //   node web/test/browser_check.mjs URL CAMERA SIM_TIME OUT_DIR
 // opens URL, waits for the scene and for a frame at least as new as SIM_TIME (XPERSim is paused there), lets the
 // camera views render it, then writes OUT_DIR/CAMERA.png (the page's view through the scene camera CAMERA, at the
 // camera's own pixels), OUT_DIR/page.png (the whole page, for people) and OUT_DIR/page.json (what the page shows:
 // the experiment number in the progress panel, frames, latency). Exit 1 with a sentence when something is missing.
-import { chromium } from 'playwright-core';
+// BROWSER=chromium (the default): Debian's chromium, headless, through playwright-core. BROWSER=firefox: Debian's
+// firefox-esr through puppeteer-core over WebDriver BiDi (stock Firefox speaks it; playwright needs a patched
+// Firefox that cannot be had here), in a window on $DISPLAY (Xvfb), since headless Firefox offers no WebGL.
 import { writeFileSync } from 'node:fs';
 
 const [url, camera, simTimeText, out] = process.argv.slice(2);
 if (!url || !camera || !simTimeText || !out) {
-  console.error('usage: node browser_check.mjs URL CAMERA SIM_TIME OUT_DIR');
+  console.error('usage: [BROWSER=chromium|firefox] node browser_check.mjs URL CAMERA SIM_TIME OUT_DIR');
   process.exit(2);
 }
 const simTime = Number(simTimeText);
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  headless: true,
-  // playwright gives every launch a fresh, temporary profile (its own --user-data-dir).
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-         '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
+const which = process.env.BROWSER || 'chromium';
+const viewport = { width: 1400, height: 900 };
+
+// The two drivers differ in how they launch and in waitForFunction's argument order; the rest is the same API.
+async function open() {
+  if (which === 'chromium') {
+    const { chromium } = await import('playwright-core');
+    const browser = await chromium.launch({
+      executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+      headless: true,
+      // playwright gives every launch a fresh, temporary profile (its own --user-data-dir).
+      args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+             '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    });
+    const page = await browser.newPage({ viewport });
+    return { browser, page, waitFor: (fn, arg, options) => page.waitForFunction(fn, arg, options) };
+  }
+  if (which === 'firefox') {
+    const puppeteer = (await import('puppeteer-core')).default;
+    const browser = await puppeteer.launch({
+      browser: 'firefox',
+      executablePath: process.env.FIREFOX || '/usr/bin/firefox-esr',
+      headless: false,
+      defaultViewport: viewport,
+      // A closed network: no updates, telemetry or remote settings (puppeteer's profile turns most off already).
+      extraPrefsFirefox: { 'app.update.enabled': false, 'network.captive-portal-service.enabled': false },
+    });
+    const page = await browser.newPage();
+    return { browser, page, waitFor: (fn, arg, options) => page.waitForFunction(fn, options, arg) };
+  }
+  console.error(`BROWSER is '${which}'; it must be chromium or firefox`);
+  process.exit(2);
+}
+
+const { browser, page, waitFor } = await open();
 let status = 0;
 try {
-  const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
   const logs = [];
   page.on('console', (m) => logs.push(`${m.type()}: ${m.text()}`));
   page.on('pageerror', (e) => logs.push(`page error: ${e.message}`));
   await page.goto(url, { waitUntil: 'load', timeout: 30000 });
   try {
-    await page.waitForFunction((t) => {
+    await waitFor((t) => {
       const s = window.xpersif;
       return s && s.scene && s.lastFrame && s.lastFrame.simTime >= t - 1e-6;
     }, simTime, { timeout: 60000, polling: 100 });
@@ -41,10 +70,10 @@ try {
   }
   // Some more renders after the frame: the camera views render every third animation frame.
   const rendered = await page.evaluate(() => window.xpersif.rendered);
-  await page.waitForFunction((r) => window.xpersif.rendered >= r + 12, rendered, { timeout: 30000 });
+  await waitFor((r) => window.xpersif.rendered >= r + 12, rendered, { timeout: 30000, polling: 100 });
   // The experiment number reaches the panel with the loop's progress (latched): give it a moment.
-  await page.waitForFunction(() => document.getElementById('experiment-number').dataset.experiment !== '',
-    null, { timeout: 20000 }).catch(() => {});
+  await waitFor(() => document.getElementById('experiment-number').dataset.experiment !== '',
+    null, { timeout: 20000, polling: 100 }).catch(() => {});
   const shot = await page.evaluate((name) => {
     const c = document.getElementById('camera-' + name);
     return c ? { data: c.toDataURL('image/png'), width: c.width, height: c.height } : null;
@@ -72,7 +101,7 @@ try {
   }));
   shown.logs = logs;
   writeFileSync(`${out}/page.json`, JSON.stringify(shown, null, 1));
-  console.log(`page: camera views ${shown.cameras.join(', ')}; progress panel: experiment ${shown.experiment_text}, ` +
+  console.log(`${which}: camera views ${shown.cameras.join(', ')}; progress panel: experiment ${shown.experiment_text}, ` +
     `loop ${shown.loop_state}; ${shown.frames} frames, last at t = ${shown.frame.simTime.toFixed(3)} s`);
   for (const l of logs) if (/error/i.test(l)) console.log(l);
 } catch (e) {
