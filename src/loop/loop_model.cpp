@@ -252,8 +252,17 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
   // The scene as it is now: VISION works behind the camera, so its latest vector may show an older world (in
   // lockstep the next idle tick brings a frame of the standing world).
   double newer_than = ros::Time::now().toSec();
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  // 10 s of wall time while simulated time moves: a paused XPERSim (someone watching a frame) stops the clock,
+  // and a wait for a new frame then waits as long as the pause (it once aborted the run after 10 s).
+  ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  ros::WallTime last_wall = ros::WallTime::now();
+  ros::Time last_sim = ros::Time::now();
+  const ros::WallTime give_up = last_wall + ros::WallDuration(600.0);  // a clock that never moves again
   while (ros::ok()) {
+    const ros::WallTime wall_now = ros::WallTime::now();
+    if (ros::Time::now() == last_sim) deadline += wall_now - last_wall;  // the clock stood still meanwhile
+    last_wall = wall_now;
+    last_sim = ros::Time::now();
     // Simulated time that went backwards means XPERSim was restarted (its manager died and was respawned): its
     // clock began again, and the world standing now is the restarted one; a frame newer than that is the scene.
     newer_than = std::min(newer_than, ros::Time::now().toSec());
@@ -264,8 +273,12 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
       *scene = features.response.features;
       return true;
     }
-    if (ros::WallTime::now() > deadline) {
-      if (why->empty()) *why = "no new observation of the scene came within 10 s";
+    if (ros::WallTime::now() > deadline || ros::WallTime::now() > give_up) {
+      if (why->empty()) {
+        *why = ros::WallTime::now() > give_up
+                   ? "no new observation of the scene came within 600 s: the simulator's clock stood still"
+                   : "no new observation of the scene came within 10 s while simulated time went on";
+      }
       return false;
     }
     // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
