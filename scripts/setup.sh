@@ -29,6 +29,10 @@ if [[ ! -d "$repo/web/node_modules/three" || ! -d "$repo/web/node_modules/playwr
   (cd "$repo/web" && npm ci --no-audit --no-fund >"$repo/web/npm.log" 2>&1) || { cat "$repo/web/npm.log"; exit 1; }
 fi
 
+# catkin snapshots the devel space's environment at configure time (build/catkin_generated/setup_cached.sh, which
+# every ctest entry runs under) and leaves out directories that do not exist yet: on a fresh clone PYTHONPATH came
+# out empty and web_bridge.test's Python could not import the package's messages. So they exist before it looks.
+mkdir -p "$repo/build/devel/lib/python3/dist-packages" "$repo/build/devel/lib/pkgconfig"
 # ROS's tools live in /usr/bin/python3; a python3 earlier on the PATH (pyenv) lacks catkin_pkg.
 cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >"$repo/build.log" 2>&1 ||

@@ -13,8 +13,6 @@
 
 namespace xpersif::core {
 
-const std::vector<std::string> kPushSides{"-x", "+x", "-y", "+y"};
-
 namespace {
 
 std::string metres(double v) { return describeNumber(v) + " m"; }
@@ -77,7 +75,7 @@ void DesignOptions::validate() const {
   }
   if (sides.empty()) throw ValidationError("options.sides is empty; list at least one of -x, +x, -y, +y");
   for (std::size_t i = 0; i < sides.size(); ++i) {
-    requireOneOf("options.sides[" + std::to_string(i) + "]", sides[i], kPushSides);
+    requireOneOf("options.sides[" + std::to_string(i) + "]", sides[i], pushSides());
   }
   if (grid_offsets.empty()) throw ValidationError("options.grid_offsets is empty; list at least one offset");
   for (std::size_t i = 0; i < grid_offsets.size(); ++i) {

@@ -109,7 +109,7 @@ TEST(GridDesign, CoversEveryCellOnceThenRepeatsInOrder) {
   for (const auto& e : first) cells.insert({e.object, e.side, e.offset, e.distance});
   EXPECT_EQ(cells.size(), 96u);
   for (const auto& object : {"red_cube", "green_cube", "yellow_cube", "blue_cube"}) {
-    for (const auto& side : kPushSides) {
+    for (const auto& side : pushSides()) {
       for (double offset : {-0.75 * 0.02, 0.0, 0.75 * 0.02}) {  // default grid fractions of the offset limit
         for (double distance : {0.2 * 0.15, 0.4 * 0.15}) {         // and of the longest push
           EXPECT_EQ(cells.count({object, side, offset, distance}), 1u);

@@ -31,7 +31,7 @@ DesignContext space() {
 double outcome(const ExperimentChoice& e, std::mt19937_64& noise) {
   if (e.object == "trivial") return 0.0;
   if (e.object == "noisy") return std::uniform_real_distribution<double>(0.0, 1.0)(noise);
-  const double side = static_cast<double>(std::find(kPushSides.begin(), kPushSides.end(), e.side) - kPushSides.begin());
+  const double side = static_cast<double>(std::find(pushSides().begin(), pushSides().end(), e.side) - pushSides().begin());
   const double u = e.offset / 0.02;  // the offset as a fraction of the face's limit
   return 0.5 + 0.5 * std::sin(2.5 * u + 1.5 * side) * e.distance / 0.15;
 }

@@ -24,13 +24,10 @@
 
 namespace xpersif::core {
 
-/// The pushable faces, in the cube's frame.
-extern const std::vector<std::string> kPushSides;
-
 /// One designed experiment (a push). The loop turns it into its full experiment record.
 struct ExperimentChoice {
   std::string object;  ///< e.g. "red_cube"
-  std::string side;    ///< one of kPushSides
+  std::string side;    ///< one of pushSides() (core/experiment.h)
   double offset = 0;   ///< metres, lateral offset of the contact point from the face centre
   double distance = 0; ///< metres driven after contact
   std::string rationale;  ///< why this one, for people and traces (e.g. "grid cell 3 of 96")
@@ -76,7 +73,7 @@ struct DesignOptions {
   double max_offset = 1.0;
   double min_distance = 0.015;  ///< m, > 0
   double max_distance = 0.15;   ///< m, >= min_distance
-  std::vector<std::string> sides = kPushSides;             ///< the faces designs may choose
+  std::vector<std::string> sides = pushSides();            ///< the faces designs may choose
   /// Grid design's values: offsets as fractions in [-1, 1] of the face's offset limit, distances as fractions
   /// in (0, 1] of max_distance.
   std::vector<double> grid_offsets{-0.75, 0.0, 0.75};
