@@ -47,6 +47,10 @@ std::string checkAllFinite(const std::string& field, const std::vector<double>& 
   return "";
 }
 
+std::string checkHeading(const std::string& field, double value) {
+  return checkInRange(field, value, -kMaxHeading, kMaxHeading);
+}
+
 std::string checkInRange(const std::string& field, double value, double lo, double hi) {
   std::string finite = checkFinite(field, value);
   if (!finite.empty()) return finite;

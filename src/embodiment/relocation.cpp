@@ -34,7 +34,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   go.interface_type = "xpersif/GoToPoseAction";
   go.description = "drive the robot to a pose, around the objects the overhead camera sees";
   go.parameters = {"?pose"};
-  go.preconditions = {{"finite(?pose)", "the target must be finite numbers"},
+  go.preconditions = {{"finite(?pose)", "the target must be finite numbers, its heading within +-1000 rad"},
                       {"localized(robot)", "the robot's pose must be known from the requested pose source"},
                       {"in_arena(?pose)", "the robot must fit inside the arena at the target"},
                       {"reachable(?pose)", "a collision-free path must lead from the robot to the target"}};
@@ -50,7 +50,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                // The message's own field names (geometry_msgs/Pose2D: x, y, theta), so the sentence points at them.
                std::string why = core::checkFinite("goal.target.x", g.target.x);
                if (why.empty()) why = core::checkFinite("goal.target.y", g.target.y);
-               if (why.empty()) why = core::checkFinite("goal.target.theta", g.target.theta);
+               if (why.empty()) why = core::checkHeading("goal.target.theta", g.target.theta);
                return why;
              })
       .check("localized(robot)",
@@ -79,12 +79,12 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   turn.interface_type = "xpersif/TurnToAction";
   turn.description = "turn the robot in place to a heading";
   turn.parameters = {"?heading"};
-  turn.preconditions = {{"finite(?heading)", "the heading must be a finite number"},
+  turn.preconditions = {{"finite(?heading)", "the heading must be a finite angle within +-1000 rad"},
                         {"localized(robot)", "the robot's pose must be known from the requested pose source"}};
   turn.effects = {"robot_heading(robot, ?heading)"};
   ContractChecker<TurnToGoal> turn_contract(turn);
   turn_contract.bind([](const TurnToGoal& g) { return core::Bindings{{"?heading", core::describeNumber(g.heading)}}; })
-      .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkFinite("goal.heading", g.heading); })
+      .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkHeading("goal.heading", g.heading); })
       .check("localized(robot)", [this](const TurnToGoal& g) {
         core::Pose2D pose;
         return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";

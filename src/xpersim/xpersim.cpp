@@ -584,7 +584,7 @@ void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
   std::string why = checkVector3("cmd_vel.linear", done->cmd_vel.linear);
   if (why.empty()) why = checkVector3("cmd_vel.angular", done->cmd_vel.angular);
   if (why.empty()) {
-    core::LockstepCoordinator::Command command{done->drives, done->cmd_vel.linear.x, done->cmd_vel.angular.z};
+    core::LockstepCoordinator::Command command{done->drives != 0, done->cmd_vel.linear.x, done->cmd_vel.angular.z};
     why = lockstep_->report(done->participant, done->tick,
                             done->phase == LockstepTick::SENSE ? core::LockstepCoordinator::Phase::Sense
                                                                : core::LockstepCoordinator::Phase::Act,

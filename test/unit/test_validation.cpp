@@ -31,6 +31,14 @@ TEST(Validation, Ranges) {
   EXPECT_EQ(checkPositive("step", 0.1), "");
 }
 
+TEST(Validation, HeadingsWithinAThousandRadians) {
+  EXPECT_EQ(checkHeading("goal.heading", -3.0), "");
+  EXPECT_EQ(checkHeading("goal.heading", 12.5), "") << "a few turns are normalised, not refused";
+  EXPECT_EQ(checkHeading("goal.heading", 1e308), "goal.heading is 1e+308; it must lie in [-1000, 1000]");
+  EXPECT_EQ(checkHeading("goal.heading", -1e308), "goal.heading is -1e+308; it must lie in [-1000, 1000]");
+  EXPECT_EQ(checkHeading("goal.heading", std::nan("")), "goal.heading is NaN; it must be a finite number");
+}
+
 TEST(Validation, UnitQuaternions) {
   EXPECT_EQ(checkUnitQuaternion("q", 0, 0, 0, 1), "");
   EXPECT_EQ(checkUnitQuaternion("q", 0, 0, std::sqrt(0.5), std::sqrt(0.5)), "");

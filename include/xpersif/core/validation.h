@@ -36,6 +36,11 @@ std::string checkFinite(const std::string& field, double value);
 std::string checkAllFinite(const std::string& field, const std::vector<double>& values);
 /// lo <= value <= hi (and finite).
 std::string checkInRange(const std::string& field, double value, double lo, double hi);
+/// The largest heading a command takes, in radians (about 159 turns): headings are normalised to (-pi, pi], and
+/// far beyond a few turns a number like 1e308 is a typo whose normalisation means nothing.
+constexpr double kMaxHeading = 1000.0;
+/// A heading in radians: finite and within +-kMaxHeading.
+std::string checkHeading(const std::string& field, double value);
 /// value > 0 (and finite).
 std::string checkPositive(const std::string& field, double value);
 /// (x, y, z, w) finite with norm within @p tolerance of 1.
