@@ -134,11 +134,15 @@ def garbage(msg_class, rng):
     return bytes(buf), tamed
 
 
+def serialized(msg):
+    buf = io.BytesIO()
+    msg.serialize(buf)
+    return bytearray(buf.getvalue())
+
+
 def smallest_message(msg_class):
     """Bytes of the type's default message: empty strings and arrays, so no message of the type is shorter."""
-    buf = io.BytesIO()
-    msg_class().serialize(buf)
-    return len(buf.getvalue())
+    return len(serialized(msg_class()))
 
 
 def forged_message(msg_class):
@@ -158,12 +162,7 @@ def forged_message(msg_class):
             sample = 0
         empty, one = msg_class(), msg_class()
         setattr(one, name, [sample])
-        serialized = []
-        for msg in (empty, one):
-            buf = io.BytesIO()
-            msg.serialize(buf)
-            serialized.append(bytearray(buf.getvalue()))
-        a, b = serialized
+        a, b = serialized(empty), serialized(one)
         offset = next(i for i in range(len(a)) if a[i] != b[i])  # the array's length: 0 in one, 1 in the other
         a[offset:offset + 4] = struct.pack("<I", HUGE)
         return bytes(a), name
@@ -178,7 +177,6 @@ class ForgedPublisher:
         self.topic, self.type, self.case = topic, topic_type, case
         self.msg_class = roslib.message.get_message_class(topic_type)
         self.caller_id = "/xpersif_topic_garbage_%d" % os.getpid()
-        self.connections = 0
         self.sent = 0
         self.tamed = 0
         self.listener = socket.socket()
@@ -213,7 +211,6 @@ class ForgedPublisher:
         try:
             conn.settimeout(5)
             read_header(conn)
-            self.connections += 1
             conn.sendall(header_bytes({"callerid": self.caller_id, "topic": self.topic, "type": self.type,
                                        "md5sum": self.msg_class._md5sum, "latching": "0",
                                        "message_definition": self.msg_class._full_text}))

@@ -178,8 +178,7 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
                            : "dropped from the lockstep clock (it answered too late)",
                static_cast<unsigned long>(message->tick), sensor_ ? "joining again" : "its command ends");
       joined_ = false;
-      rejoin = sensor_ && !rejoining_;
-      rejoining_ = rejoining_ || rejoin;
+      rejoin = sensor_;  // ticks are heard on one thread: no other tick arrives while it joins
     } else {
       if (message->phase == LockstepTick::ACT) latest_act_ = tick;
       if (sensor_ && message->phase == LockstepTick::SENSE && listed) callback = on_tick_;
@@ -192,7 +191,6 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
     try {
       std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
       joinLocked(10.0, lock);
-      rejoining_ = false;
       const bool left = left_;
       lock.unlock();
       if (left) {
@@ -202,7 +200,6 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
       }
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex_);
-      rejoining_ = false;
       joined_ = !left_;  // hear the next tick, and try again from it
       ROS_WARN_THROTTLE(5.0, "%s: %s", name_.c_str(), e.what());
     }

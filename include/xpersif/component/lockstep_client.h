@@ -93,7 +93,6 @@ class LockstepClient {
   bool joined_ = false;
   std::uint64_t clock_ = 0;         // the clock joined (LockstepTick.clock)
   std::uint64_t joined_at_ = 0;     // the tick it was joined at: older ticks may not list it yet
-  bool rejoining_ = false;          // a sensor joins again from its tick thread
   bool left_ = false;               // leave() was called: a rejoin under way must not stay joined
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
   std::function<void(const Tick&)> on_tick_;
