@@ -2,7 +2,7 @@
 """A study: N seeds x designs x budget on the lockstep loop, headless, with a report (issue 16).
 
     bash scripts/study.sh [--seeds N | --seed-list 1,2,5] [--designs random,learning_progress,error_max]
-                          [--budget B] [--world FILE] [--out DIR] [--jobs J] [--evaluation-size M]
+                          [--budget B] [--goals G] [--world FILE] [--out DIR] [--jobs J] [--evaluation-size M]
                           [--evaluation-objects a,b] [--evaluation-seed S] [--every K]
                           [--param component.name=value]... [--timeout SECONDS] [--report-only]
 
@@ -52,7 +52,10 @@ def parse_args(argv):
     p.add_argument("--seed-list", default=None, help="these seeds, comma-separated (instead of --seeds)")
     p.add_argument("--designs", default="random,learning_progress,error_max", help="comma-separated designs")
     p.add_argument("--budget", type=int, default=40, help="experiments per cell")
-    p.add_argument("--world", default=os.path.join(REPO, "worlds", "default.yaml"))
+    p.add_argument("--goals", type=int, default=0,
+                   help="goals per cell after its experiments, reached with the model it learned (default 0)")
+    p.add_argument("--world", default=os.path.join(REPO, "worlds", "structured.yaml"),
+                   help="the world file (default: the default experiment's, worlds/structured.yaml)")
     p.add_argument("--out", default=None, help="the study's directory (default studies/<time>)")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="cells at once (default: the cores)")
     p.add_argument("--evaluation-size", type=int, default=40, help="pushes of the held-out evaluation set")
@@ -81,6 +84,8 @@ def parse_args(argv):
             fail("--designs: '%s' is not a design name" % d)
     if a.budget < 1 or a.budget > 100000:
         fail("--budget is %d; it must be in 1..100000" % a.budget)
+    if a.goals < 0 or a.goals > 10000:
+        fail("--goals is %d; it must be in 0..10000" % a.goals)
     if a.jobs < 1:
         fail("--jobs is %d; it must be at least 1" % a.jobs)
     if a.evaluation_size < 1:
@@ -139,9 +144,12 @@ def evaluation_objects(args):
 
 
 def definition(args, eval_objects):
-    return {"designs": args.designs, "seeds": args.seed_list, "budget": args.budget, "world": args.world,
+    defn = {"designs": args.designs, "seeds": args.seed_list, "budget": args.budget, "world": args.world,
             "evaluation": {"size": args.evaluation_size, "objects": eval_objects, "seed": args.evaluation_seed},
             "parameters": args.params}
+    if args.goals:  # only when asked, so that a study from before --goals existed still resumes
+        defn["goals"] = args.goals
+    return defn
 
 
 def experiment_file(path, name, seed, world, phase, parameters):
@@ -202,8 +210,8 @@ def plan(args, eval_objects):
             name = "%s-seed%03d" % (design, seed)
             f = os.path.join(args.out, "experiments", name + ".yaml")
             experiment_file(f, name.replace("-", "_"), seed, args.world,
-                            {"kind": "experimentation", "name": design, "design": design, "experiments": args.budget},
-                            params)
+                            {"kind": "experimentation", "name": design, "design": design, "experiments": args.budget,
+                             "goals": args.goals}, params)
             cells.append(Cell(name, design, seed, args.budget, f, os.path.join(args.out, "cells", name)))
     return cells
 
@@ -487,6 +495,25 @@ def pct(x):
     return "never" if math.isinf(x) else "%.0f %%" % (100 * x)
 
 
+def cell_goals(cell):
+    """The cell's goals from its knowledge base: (object, reached, final error, pushes), and the tolerance."""
+    con = sqlite3.connect("file:%s?mode=ro" % os.path.join(cell.run_dir, "knowledge.db"), uri=True)
+    try:
+        run = con.execute("SELECT id, parameters FROM runs WHERE name = ? ORDER BY id DESC LIMIT 1",
+                          (cell.design,)).fetchone()
+        if not run:
+            return [], None
+        try:
+            tolerance = json.loads(run[1] or "{}").get("goal_tolerance")
+        except ValueError:
+            tolerance = None
+        rows = con.execute("SELECT object, reached, final_error, pushes_used FROM goals WHERE run_id = ? ORDER BY id",
+                           (run[0],)).fetchall()
+        return rows, tolerance
+    finally:
+        con.close()
+
+
 def report(args, cells, eval_objects, eval_why):
     out = os.path.join(args.out, "report")
     os.makedirs(out, exist_ok=True)
@@ -497,6 +524,7 @@ def report(args, cells, eval_objects, eval_why):
             continue
         curve_rows = [(int(r["experiments"]), float(r["error"])) for r in read_csv(os.path.join(cell.run_dir, "curve.csv"))]
         data[(cell.design, cell.seed)] = {
+            "goals": cell_goals(cell),
             "curve": curve_rows,
             "experiments": read_csv(os.path.join(cell.run_dir, "experiments.csv")),
             "notions": read_csv(os.path.join(cell.run_dir, "notions.csv")),
@@ -704,8 +732,40 @@ def report(args, cells, eval_objects, eval_why):
         md.append("- **%s** (%d runs): %s" % (design, runs, "; ".join(
             "%s (%d of %d)" % (texts[0], len(texts), runs) for _, texts in sorted(found.items())) or "none"))
     md.append("")
+    goal_rows = [{"design": design, "seed": seed, "object": g[0], "reached": int(g[1]), "final_error": g[2],
+                  "pushes": g[3]}
+                 for (design, seed), d in sorted(data.items()) for g in d["goals"][0]]
+    with open(os.path.join(out, "goals.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["design", "seed", "object", "reached", "final_error", "pushes"])
+        w.writeheader()
+        w.writerows(goal_rows)
+    if goal_rows:
+        tolerances = sorted({d["goals"][1] for d in data.values() if d["goals"][1] is not None})
+        md.append("## Goals reached with the learned model")
+        md.append("")
+        md.append("After its experiments each cell set %d goals (targets one to several pushes away) and reached each "
+                  "with up to a few pushes chosen by the model it had learned; a goal counts as reached within %s. "
+                  "Goal pushes are learned from but are not part of the learning curves." % (
+                      args.goals, " or ".join("%.1f cm" % (100 * t) for t in tolerances) or "the run's tolerance"))
+        md.append("")
+        md.append("| design | goals | reached | median final error (m) | mean pushes | reached per object |")
+        md.append("|---|---|---|---|---|---|")
+        for design in designs:
+            rows = [r for r in goal_rows if r["design"] == design]
+            if not rows:
+                continue
+            per_object = []
+            for o in objects:
+                ro = [r for r in rows if r["object"] == o]
+                if ro:
+                    per_object.append("%s %d/%d" % (o, sum(r["reached"] for r in ro), len(ro)))
+            reached = sum(r["reached"] for r in rows)
+            md.append("| %s | %d | %d (%s) | %s | %.1f | %s |" % (
+                design, len(rows), reached, pct(reached / len(rows)), fmt(median([r["final_error"] for r in rows])),
+                sum(r["pushes"] for r in rows) / len(rows), ", ".join(per_object)))
+        md.append("")
     md.append("Files: `cells.csv` (per cell), `learning_curves.csv`/`.png`, `reach.csv`, `tests.csv`, "
-              "`object_share.csv`/`.png`; each cell's run directory `cells/DESIGN-seedNNN/` holds its knowledge base, "
+              "`object_share.csv`/`.png`, `goals.csv`; each cell's run directory `cells/DESIGN-seedNNN/` holds its knowledge base, "
               "`curve.csv`, `experiments.csv`, `notions.csv` and logs.")
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write("\n".join(md) + "\n")

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # A tiny study through scripts/study.py (issue 16): 2 seeds x 2 designs (random, learning_progress) x 10 experiments
-# and a held-out evaluation set of 6 pushes, two cells at once, each on a master of its own; then
+# and a goal each, on the default experiment's world, with a held-out evaluation set of 6 pushes, two cells at once, each on a master of its own; then
 #  - test/study_check.py: the report's files exist and its figures agree with the knowledge bases (evaluation set
-#    only on the learnable objects, per-cell counts, curves recomputed, reach, shares per object);
+#    only on the learnable objects, per-cell counts, curves recomputed, reach, shares per object, goals);
 #  - the same command again resumes: every cell is skipped and the report is the same.
 #   bash test/study.sh BUILD_DIR        KEEP=1 keeps the study's directory
 set -eo pipefail
@@ -19,7 +19,8 @@ cleanup() { [ -n "${KEEP:-}" ] && echo "kept $T" || rm -rf "$T"; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-args=(--seeds 2 --designs random,learning_progress --budget 10 --evaluation-size 6 --every 1 --jobs 2 --out "$T/study")
+args=(--seeds 2 --designs random,learning_progress --budget 10 --goals 1 --evaluation-size 6 --every 1 --jobs 2
+      --out "$T/study")
 started=$SECONDS
 /usr/bin/python3 "$HERE/scripts/study.py" "${args[@]}" 2>"$T/first.log" || { cat "$T/first.log"; fail "the study failed"; }
 echo "ok: the tiny study ran in $((SECONDS - started)) s"

@@ -36,7 +36,7 @@ def close(a, b, tol=1e-6):
 
 
 for name in ["report.md", "learning_curves.csv", "learning_curves.png", "reach.csv", "tests.csv", "object_share.csv",
-             "object_share.png", "cells.csv"]:
+             "object_share.png", "cells.csv", "goals.csv"]:
     check(os.path.getsize(os.path.join(report, name)) > 0, "report/%s is missing or empty" % name)
 check(os.path.exists(os.path.join(study, "evaluation_set.csv")), "evaluation_set.csv is missing")
 with open(os.path.join(study, "study.json")) as f:
@@ -59,6 +59,7 @@ cells = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "ce
 check(set(cells) == {(d, s) for d in designs for s in seeds}, "cells.csv has %s" % sorted(cells))
 curves = {}
 shares_kb = {}
+goals_kb = []
 for (design, seed), cell in cells.items():
     d = os.path.join(study, "cells", "%s-seed%03d" % (design, seed))
     con = sqlite3.connect(os.path.join(d, "knowledge.db"))
@@ -68,7 +69,17 @@ for (design, seed), cell in cells.items():
     run = runs[0][0]
     ex = con.execute("SELECT seq, object, status, design FROM experiments WHERE run_id = ? AND seq <= ? ORDER BY seq",
                      (run, budget)).fetchall()
+    goals = con.execute("SELECT object, reached, final_error, pushes_used FROM goals WHERE run_id = ? ORDER BY id",
+                        (run,)).fetchall()
+    (parameters,) = con.execute("SELECT parameters FROM runs WHERE id = ?", (run,)).fetchone()
     con.close()
+    want_goals = definition.get("goals", 0)
+    check(len(goals) == want_goals, "%s-%d: %d goals in the KB, the study asked %d" % (design, seed, len(goals), want_goals))
+    tolerance = json.loads(parameters).get("goal_tolerance")
+    for g in goals:
+        check(bool(g[1]) == (g[2] < tolerance), "%s-%d: goal %s reached=%s with final error %s and tolerance %s"
+              % (design, seed, g[0], g[1], g[2], tolerance))
+        goals_kb.append((design, seed, g[0], int(g[1]), g[2], g[3]))
     check(len(ex) == budget == int(cell["designed"]), "%s-%d: %d designed in the KB, %s in cells.csv" % (design, seed, len(ex), cell["designed"]))
     check(all(e[3] == design for e in ex), "%s-%d: experiments designed by %s" % (design, seed, {e[3] for e in ex}))
     check(sum(e[2] != "done" for e in ex) == int(cell["failed"]), "%s-%d: failed count differs" % (design, seed))
@@ -119,7 +130,17 @@ for r in rows(os.path.join(report, "object_share.csv")):
     check(values and close(sum(values) / len(values), r["share"]),
           "object_share.csv %s %s %s-%s differs" % (r["design"], r["object"], r["from"], r["to"]))
 
+# Goals: goals.csv is every cell's goals as stored, and report.md counts them.
+stored_goals = [(r["design"], int(r["seed"]), r["object"], int(r["reached"]), float(r["final_error"]), int(r["pushes"]))
+                for r in rows(os.path.join(report, "goals.csv"))]
+check(sorted(stored_goals) == sorted(goals_kb), "goals.csv differs from the knowledge bases' goals")
+
 text = open(os.path.join(report, "report.md")).read()
+for design in designs:
+    reached = [g for g in goals_kb if g[0] == design]
+    if reached:
+        line = "| %s | %d | %d (" % (design, len(reached), sum(g[3] for g in reached))
+        check(line in text, "report.md's goal line for %s does not say %s" % (design, line))
 for design in designs:
     check(design in text, "report.md does not mention %s" % design)
 check("Wilcoxon" in text and "bootstrap" in text, "report.md lacks the test or the interval")

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "xpersif/core/experiment_samples.h"
 #include "xpersif/core/motivation.h"
 
@@ -50,15 +52,15 @@ int experimentsToReach(const LearningCurve& curve, double error) {
   return -1;
 }
 
+double runParameter(const std::string& parameters_json, const std::string& key, double fallback) {
+  const auto parameters = nlohmann::json::parse(parameters_json, nullptr, /*allow_exceptions=*/false);
+  if (!parameters.is_object()) return fallback;
+  const auto value = parameters.find(key);
+  return value != parameters.end() && value->is_number() ? value->get<double>() : fallback;
+}
+
 long designedCount(const std::string& parameters_json) {
-  const std::string key = "\"experiments\":";
-  const auto at = parameters_json.find(key);
-  if (at == std::string::npos) return -1;
-  try {
-    return std::stol(parameters_json.substr(at + key.size()));
-  } catch (const std::exception&) {
-    return -1;
-  }
+  return static_cast<long>(runParameter(parameters_json, "experiments", -1));
 }
 
 }  // namespace xpersif::core

@@ -37,13 +37,16 @@ GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
   goal.name = "design_goal";
   goal.kind = core::Contract::Kind::Operation;
   goal.interface_type = "xpersif/DesignGoal";
-  goal.description = "a goal to reach with what has been learned: a movable object and a target 5-12 cm away";
+  goal.description = "a goal to reach with what has been learned: a movable object and a target one to several pushes away";
   goal.preconditions = {{"learned(model)", "MACHINELEARNING must have published a model"},
-                        {"valid(scene)", "the scene must be finite numbers"}};
+                        {"valid(scene)", "the scene must be finite numbers"},
+                        {"valid(tolerance)", "the tolerance must be 0..1 m"}};
   goal.effects = {"designed(goal)"};
   ContractChecker<DesignGoal::Request> goal_contract(goal);
   goal_contract.check("learned(model)", [this](const DesignGoal::Request&) { return whyNoModel(); })
-      .check("valid(scene)", [](const DesignGoal::Request& r) { return checkScene(r.scene); });
+      .check("valid(scene)", [](const DesignGoal::Request& r) { return checkScene(r.scene); })
+      .check("valid(tolerance)",
+             [](const DesignGoal::Request& r) { return core::checkInRange("tolerance", r.tolerance, 0.0, 1.0); });
   addOperation<DesignGoal>(
       goal_contract, nullptr,
       [this](const DesignGoal::Request& request, DesignGoal::Response& response) { designGoal(request, response); });
@@ -53,7 +56,8 @@ GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
   choose.name = "choose_push";
   choose.kind = core::Contract::Kind::Operation;
   choose.interface_type = "xpersif/ChoosePush";
-  choose.description = "the push the learned model expects to bring the object closest to the target";
+  choose.description =
+      "the push the learned model expects to bring the object closest to the target, its uncertainty counted";
   choose.parameters = {"?object"};
   choose.preconditions = {{"learned(model)", "MACHINELEARNING must have published a model"},
                           {"valid(scene)", "the scene must be finite numbers"},
@@ -78,15 +82,17 @@ GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
 
 void GoalDesign::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  int seed = 1, random_candidates = 64;
+  int seed = 1, random_candidates = 256;
+  double uncertainty_weight = 1.0;
   // Objects, the arena and every distance below come from XPERSim's scene (~objects may leave some out).
   const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
   double largest = 0;  // the largest object's circumradius
   for (const auto& o : catalogue.objects) largest = std::max(largest, o.footprint.circumradius());
   const double max_push = catalogue.maxPushDistance();
-  // Targets one to several pushes away; a target keeps the object's own size plus room for the robot to reach
-  // round it from the walls, and an object's width from the others.
-  double min_target = max_push / 3, max_target = 0.8 * max_push;
+  // Targets one to several pushes away (a third of the longest push to the longest: 5-15 cm in a 0.6 m arena);
+  // a target keeps the object's own size plus room for the robot to reach round it from the walls, and an
+  // object's width from the others.
+  double min_target = max_push / 3, max_target = max_push;
   double wall_clearance = largest + 1.5 * catalogue.robot_radius, object_clearance = 2 * largest;
   std::vector<double> offsets{-0.75, -0.375, 0.0, 0.375, 0.75};      // fractions of each face's offset limit
   std::vector<double> distances{0.15, 0.3, 0.45, 0.6, 0.75, 0.9};   // fractions of the longest push
@@ -99,10 +105,12 @@ void GoalDesign::onConfigure() {
   pnh.param("offsets", offsets, offsets);
   pnh.param("distances", distances, distances);
   pnh.param("random_candidates", random_candidates, random_candidates);
+  pnh.param("uncertainty_weight", uncertainty_weight, uncertainty_weight);
   pnh.param("model_topic", model_topic, model_topic);
   pnh.param("notions_topic", notions_topic, notions_topic);
   core::requireInRange("~seed", seed, 0, 2147483647.0);
   core::requireInRange("~random_candidates", random_candidates, 0, 100000);
+  core::requireInRange("~uncertainty_weight", uncertainty_weight, 0.0, 100.0);
   core::requireInRange("~min_target_distance", min_target, 0.001, 1.0);
   core::requireInRange("~max_target_distance", max_target, min_target, 1.0);
   core::requireInRange("~wall_clearance", wall_clearance, 0.0, 1.0);
@@ -128,8 +136,10 @@ void GoalDesign::onConfigure() {
     offsets_ = offsets;
     distances_ = distances;
     random_candidates_ = random_candidates;
+    uncertainty_weight_ = uncertainty_weight;
     arena_.size_x = catalogue.arena_size_x;
     arena_.size_y = catalogue.arena_size_y;
+    robot_radius_ = catalogue.robot_radius;
     rng_.seed(static_cast<std::uint64_t>(seed));
     learner_.reset();
     model_problem_.clear();
@@ -239,6 +249,25 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
     throw std::runtime_error("no movable object in the scene (of ~objects " + joinNames(objects_) + "; " +
                              joinNames(skipped) + " do not move when pushed)");
   }
+  // A goal the model cannot reach on purpose proves nothing: keep the objects whose pushes it predicts within
+  // the tolerance; while none is (early on), those predicted at most twice as loosely as the best one.
+  std::string loose;
+  if (request.tolerance > 0 && learner_ && learner_->sampleCount() > 0) {
+    std::vector<double> spreads;
+    for (const ObjectFeatures* o : movable) spreads.push_back(predictedSpread(fromMsg(*o)));
+    const double best = *std::min_element(spreads.begin(), spreads.end());
+    const double limit = std::max(request.tolerance, 2 * best);
+    std::vector<const ObjectFeatures*> predictable;
+    for (std::size_t i = 0; i < movable.size(); ++i) {
+      if (spreads[i] <= limit) {
+        predictable.push_back(movable[i]);
+      } else {
+        loose += (loose.empty() ? "" : ", ") + movable[i]->name + " (+-" + core::describeNumber(spreads[i]) + " m)";
+      }
+    }
+    movable = predictable;
+    if (!loose.empty()) loose += ": the model predicts their pushes more loosely than " + core::describeNumber(limit) + " m";
+  }
   if (request.seeded) rng_.seed(request.stream);
   std::shuffle(movable.begin(), movable.end(), rng_);
   std::uniform_real_distribution<double> angle(-M_PI, M_PI), distance(min_target_, max_target_);
@@ -257,13 +286,39 @@ void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Resp
       response.target_y = y;
       response.message = "bring " + object->name + " " + core::describeNumber(d) + " m to (" +
                          core::describeNumber(x) + ", " + core::describeNumber(y) + ")" +
-                         (skipped.empty() ? "" : "; not " + joinNames(skipped) + ": they do not move when pushed");
+                         (skipped.empty() ? "" : "; not " + joinNames(skipped) + ": they do not move when pushed") +
+                         (loose.empty() ? "" : "; not " + loose);
       return;
     }
   }
   throw std::runtime_error("no target " + core::describeNumber(min_target_) + "-" + core::describeNumber(max_target_) +
                            " m from a movable object lies " + core::describeNumber(wall_clearance_) +
                            " m inside the walls and away from the other objects");
+}
+
+std::vector<core::Experiment> GoalDesign::gridPushes(const std::string& object,
+                                                     const core::Footprint& footprint) const {
+  std::vector<core::Experiment> pushes;
+  for (const auto& side : core::pushSides()) {
+    const double limit = core::maxPushOffset(footprint, side);
+    for (double offset : offsets_) {
+      for (double distance : distances_) pushes.push_back({object, side, offset * limit, distance * max_push_});
+    }
+  }
+  return pushes;
+}
+
+double GoalDesign::predictedSpread(const core::ObjectFeatures& object) const {
+  const auto footprint = footprints_.find(object.name);
+  if (footprint == footprints_.end()) return INFINITY;
+  std::vector<double> spreads;
+  for (const auto& push : gridPushes(object.name, footprint->second)) {
+    const core::Prediction p = learner_->predict(core::PushInput{push, object});
+    spreads.push_back(std::hypot(p.std.dx, p.std.dy));
+  }
+  if (spreads.empty()) return INFINITY;
+  std::nth_element(spreads.begin(), spreads.begin() + spreads.size() / 2, spreads.end());
+  return spreads[spreads.size() / 2];
 }
 
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
@@ -275,13 +330,7 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
   if (footprint == footprints_.end()) {
     throw core::ValidationError("object '" + request.object + "' is not one of ~objects " + joinNames(objects_));
   }
-  std::vector<core::Experiment> candidates;
-  for (const auto& side : core::pushSides()) {
-    const double limit = core::maxPushOffset(footprint->second, side);
-    for (double offset : offsets_) {
-      for (double distance : distances_) candidates.push_back({request.object, side, offset * limit, distance * max_push_});
-    }
-  }
+  std::vector<core::Experiment> candidates = gridPushes(request.object, footprint->second);
   if (request.seeded) rng_.seed(request.stream);
   std::uniform_int_distribution<std::size_t> side(0, core::pushSides().size() - 1);
   std::uniform_real_distribution<double> offset(-1.0, 1.0), distance(min_push_, max_push_);
@@ -290,21 +339,55 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
     const double o = offset(rng_) * core::maxPushOffset(footprint->second, s);
     candidates.push_back({request.object, s, o, distance(rng_)});
   }
-  double best = INFINITY;
+  // Only pushes MANIPULATION would accept from here (its planner: a free approach spot, no wall or object in
+  // the way): a refused push teaches nothing and, chosen again from the same scene, would be refused again.
+  core::Obstacle pushed{request.object, object.x, object.y, object.yaw, footprint->second};
+  std::vector<core::Obstacle> others;
+  for (const auto& o : request.scene.objects) {
+    const auto f = footprints_.find(o.name);
+    if (o.name != request.object && f != footprints_.end()) {
+      others.push_back({o.name, o.position.x, o.position.y, o.yaw, f->second});
+    }
+  }
+  core::PushOptions options;
+  options.max_distance = max_push_;
+  std::string refused;
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                  [&](const core::Experiment& c) {
+                                    const core::PushPlan plan = core::planPush(
+                                        pushed, {c.object, c.side, c.offset, c.distance}, robot_radius_, arena_,
+                                        others, options);
+                                    if (!plan.ok && refused.empty()) refused = plan.reason;
+                                    return !plan.ok;
+                                  }),
+                   candidates.end());
+  if (candidates.empty()) {
+    throw std::runtime_error("no push of " + request.object + " is possible from where it is (for example: " +
+                             refused + ")");
+  }
+  // The push that minimises the expected squared distance to the target: the predicted end's distance squared
+  // plus, weighted, the variance of where the object ends (the trace of the outcome's covariance, the same in
+  // the push frame as in the world). A push the model knows beats one that only might land closer.
+  double best_cost = INFINITY, best_error = INFINITY, best_spread = 0;
   for (const auto& c : candidates) {
     const core::Prediction p = learner_->predict(core::PushInput{c, object});  // throws: missing features etc.
     const core::Pose2D end = predictedEnd(object, c.side, p.mean);
     const double error = std::hypot(end.x - request.target_x, end.y - request.target_y);
-    if (error < best) {
-      best = error;
+    const double variance = p.std.dx * p.std.dx + p.std.dy * p.std.dy;
+    const double cost = error * error + uncertainty_weight_ * variance;
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_error = error;
+      best_spread = std::sqrt(variance);
       response.experiment = toMsg(c);
     }
   }
-  response.expected_error = best;
+  response.expected_error = best_error;
   response.message = "push " + request.object + " on " + response.experiment.side + ", offset " +
                      core::describeNumber(response.experiment.offset) + " m, distance " +
                      core::describeNumber(response.experiment.distance) + " m: expected " +
-                     core::describeNumber(best) + " m from the target (" + std::to_string(candidates.size()) +
+                     core::describeNumber(best_error) + " m from the target, give or take " +
+                     core::describeNumber(best_spread) + " m (" + std::to_string(candidates.size()) +
                      " candidates, model of " + std::to_string(learner_->sampleCount()) + " samples)";
 }
 

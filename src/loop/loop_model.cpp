@@ -149,10 +149,10 @@ void LoopModel::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   std::string pose_source = "observation";
-  int retries = 1, max_goal_pushes = 6;
+  int retries = 1, max_goal_pushes = 5;
   bool tidy = true;
   // Tidying's margins are derived from the objects, the robot and the arena (SetupCatalogue) unless set.
-  double tidy_margin = -1, goal_tolerance = 0.05, learning_timeout = 20.0;
+  double tidy_margin = -1, goal_tolerance = 0.02, learning_timeout = 20.0;
   pnh.param("pose_source", pose_source, pose_source);
   pnh.param("retries", retries, retries);
   pnh.param("tidy", tidy, tidy);
@@ -570,7 +570,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   start.request.resume = goal.resume;
   std::ostringstream parameters;
   parameters << "{\"experiments\":" << goal.experiments << ",\"goals\":" << goal.goals << ",\"design\":\"" << goal.design
-             << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\"";
+             << "\",\"seed\":" << goal.seed << ",\"pose_source\":\"" << pose_source_ << "\",\"goal_tolerance\":"
+             << literalNumber(goal_tolerance_) << ",\"max_goal_pushes\":" << max_goal_pushes_;
   // The knowledge base refuses the run (INVALID, with its sentence) if this is not a JSON object.
   if (!goal.provenance.empty()) parameters << ",\"provenance\":" << goal.provenance;
   parameters << "}";
@@ -710,11 +711,13 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     design.request.samples = modelSamples();
     design.request.seeded = true;
     design.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Goal);
+    design.request.tolerance = goal_tolerance_;
     {
       Spending spending(wall_spent_, "design");
       why = call(nodeHandle(), "goal_design/design_goal", design);
     }
     if (!why.empty()) return ended("GOALDESIGN could not set a goal: " + why);
+    ROS_INFO("%s: goal %u: %s", name().c_str(), g + 1, design.response.message.c_str());
     ++result.goals_tried;
     RecordGoal record_goal;
     record_goal.request.run_id = result.run_id;
@@ -740,7 +743,11 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         Spending spending(wall_spent_, "design");
         why = call(nodeHandle(), "goal_design/choose_push", choose);
       }
-      if (!why.empty()) break;
+      if (!why.empty()) {  // the goal ends here, missed; the run goes on with the next goal
+        ROS_WARN("%s: goal %u (%s): GOALDESIGN chose no push: %s", name().c_str(), g + 1,
+                 design.response.object.c_str(), why.c_str());
+        break;
+      }
       ExperimentRecord record;
       runExperiment(choose.response.experiment, "goal", context, record);
       ++record_goal.request.pushes;

@@ -235,7 +235,18 @@ int main(int argc, char** argv) {
         md << "| " << g.object << " | (" << std::setprecision(3) << g.target_x << ", " << g.target_y << ") | "
            << (g.reached ? "yes" : "no") << " | " << g.final_error << " | " << g.pushes_used << " |\n";
       }
-      md << "\nSuccess rate: " << reached << " of " << goals.size() << " goals reached within 5 cm.\n";
+      // The tolerance the run was judged by, as LOOPMODEL stored it (runs from before it was stored: 5 cm).
+      const double tolerance = runParameter(need(goals_name).parameters_json, "goal_tolerance", 0.05);
+      std::vector<double> errors;
+      for (const auto& g : goals) errors.push_back(g.final_error);
+      md << "\nSuccess rate: " << reached << " of " << goals.size() << " goals reached within "
+         << std::setprecision(1) << tolerance * 100 << " cm";
+      if (!errors.empty()) {
+        std::sort(errors.begin(), errors.end());
+        const std::size_t n = errors.size();
+        md << "; median final error " << std::setprecision(3) << 0.5 * (errors[(n - 1) / 2] + errors[n / 2]) << " m";
+      }
+      md << ".\n";
     }
     std::ofstream report(out + "/report.md");
     report << md.str();

@@ -59,3 +59,15 @@ TEST(Evaluation, ErrorFallsAsTheModelLearnsAndTheCurveFindsWhereItReachesAnError
   const LearningCurve again = learningCurve("random", pushSamples(train), pushSamples(test), config, {0, 5, 20, 40});
   EXPECT_EQ(again.error, curve.error);
 }
+
+TEST(Evaluation, RunParametersAreReadFromTheStoredJsonOrFallBack) {
+  const std::string stored = R"({"experiments":32,"goals":5,"design":"random","goal_tolerance":0.02,"provenance":{}})";
+  EXPECT_EQ(designedCount(stored), 32);
+  EXPECT_DOUBLE_EQ(runParameter(stored, "goal_tolerance", 0.05), 0.02);
+  EXPECT_DOUBLE_EQ(runParameter(stored, "max_goal_pushes", 6), 6);   // an older run: not stored
+  EXPECT_DOUBLE_EQ(runParameter(stored, "design", 1), 1);            // not a number
+  EXPECT_EQ(designedCount("{\"experiments\": 7}"), 7);                // spacing is JSON's business
+  EXPECT_EQ(designedCount("not json"), -1);
+  EXPECT_EQ(designedCount("[32]"), -1);
+  EXPECT_EQ(designedCount(""), -1);
+}

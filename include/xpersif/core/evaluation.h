@@ -39,7 +39,11 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
 /// The first k at which the curve is at or below @p error, or -1.
 int experimentsToReach(const LearningCurve& curve, double error);
 
-/// "experiments" of a run's parameters (JSON written by LOOPMODEL), or -1 (the report and the study read it).
+/// A number of a run's parameters (the JSON object LOOPMODEL stores), or `fallback` when the text is not a JSON
+/// object or has no such number (runs stored before the key existed).
+double runParameter(const std::string& parameters_json, const std::string& key, double fallback);
+
+/// "experiments" of a run's parameters, or -1 (the report and the study read it).
 long designedCount(const std::string& parameters_json);
 
 }  // namespace xpersif::core

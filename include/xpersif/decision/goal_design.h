@@ -8,23 +8,26 @@
  * of the declared push models (README "Plugins"), the one whose format() is the message's format, so whichever
  * learner MACHINELEARNING runs, GOALDESIGN reads it without a parameter of its own.
  *
- * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed,
- * chosen with a seeded generator (~seed), and a target ~min_target_distance..~max_target_distance (5-12 cm)
+ * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed
+ * and, when the request gives a tolerance, whose pushes the model predicts within it (median spread of the end
+ * over the grid of pushes below; while none is, within twice the best object's spread), chosen with a seeded generator (~seed), and a target ~min_target_distance..~max_target_distance (5-15 cm
+ * in a 0.6 m arena)
  * away from it, at least ~wall_clearance (8 cm) from every wall and ~object_clearance (6 cm) from the other
  * objects.
- * choose_push: candidates = sides x ~offsets x ~distances plus ~random_candidates random pushes (seeded); for
- * each, the model's mean outcome (dx, dy in the push frame) is turned into the world (the push direction is
+ * choose_push: candidates = sides x ~offsets x ~distances plus ~random_candidates random pushes (seeded), less
+ * those MANIPULATION's push planner (core::planPush, default options) would refuse from the scene; for each, the model's mean outcome (dx, dy in the push frame) is turned into the world (the push direction is
  * the object's perceived yaw plus the side's push angle, core::pushAngleInObject) and added to the object's
- * position; the push whose predicted end is nearest the target wins (ties: the first candidate), with that
- * distance as expected_error.
+ * position; the push with the least expected squared distance to the target wins: the predicted end's distance
+ * squared plus ~uncertainty_weight times the variance of the end (std of dx and dy), so a push the model is sure
+ * of beats a guess (ties: the first candidate). expected_error is the chosen push's predicted end's distance.
  * Both refuse while no model has arrived.
  *
  * Parameters (configure); the objects, the arena and the defaults of every distance come from XPERSim's scene
  * (core::SetupCatalogue, with L = its longest push, R = the robot's radius, c = the largest object's
  * circumradius): ~seed (1), ~objects (every object; a list restricts it), ~min_target_distance (L / 3),
- * ~max_target_distance (0.8 L), ~wall_clearance (c + 1.5 R), ~object_clearance (2 c), ~offsets (fractions of each
+ * ~max_target_distance (L), ~wall_clearance (c + 1.5 R), ~object_clearance (2 c), ~offsets (fractions of each
  * face's offset limit, [-0.75, -0.375, 0, 0.375, 0.75]), ~distances (fractions of L, [0.15, 0.3, ..., 0.9]),
- * ~random_candidates (64), ~model_topic (machine_learning/model), ~notions_topic (machine_learning/notions).
+ * ~random_candidates (256), ~uncertainty_weight (1; 0: the mean alone), ~model_topic (machine_learning/model), ~notions_topic (machine_learning/notions).
  */
 #pragma once
 
@@ -67,6 +70,11 @@ class GoalDesign : public Component {
   std::string whyNoModel() const;
   void designGoal(const DesignGoal::Request& request, DesignGoal::Response& response);
   void choosePush(const ChoosePush::Request& request, ChoosePush::Response& response);
+  /// The grid of pushes of @p object: every side x ~offsets x ~distances.
+  std::vector<core::Experiment> gridPushes(const std::string& object, const core::Footprint& footprint) const;
+  /// How closely the model predicts where @p object ends: the median, over the grid's pushes, of the spread
+  /// sqrt(std_dx^2 + std_dy^2) of its end (m).
+  double predictedSpread(const core::ObjectFeatures& object) const;
 
   mutable std::mutex mutex_;
   std::vector<std::string> objects_;
@@ -77,8 +85,10 @@ class GoalDesign : public Component {
   double min_push_ = 0, max_push_ = 0;  // the set-up's push distances, m
   double min_target_ = 0.05, max_target_ = 0.12, wall_clearance_ = 0.08, object_clearance_ = 0.06;
   std::vector<double> offsets_, distances_;
-  int random_candidates_ = 64;
+  int random_candidates_ = 256;
+  double uncertainty_weight_ = 1.0;
   core::ArenaGeometry arena_;
+  double robot_radius_ = 0.035;  // m, the set-up's
   std::mt19937_64 rng_;
   /// A model that reads @p format (the first declared class, by name, whose format() it is), or why none does.
   std::shared_ptr<core::PushModel> modelFor(const std::string& format, std::string* why);

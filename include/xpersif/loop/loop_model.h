@@ -21,7 +21,7 @@
  *
  * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
  * `~tidy_margin` (m; default SetupCatalogue::wallMargin, from the objects, the robot and the arena),
- * `~tidy_spacing` (m; objects closer than this are moved apart; default SetupCatalogue::objectSpacing), `~goal_tolerance` (m, 0.05), `~max_goal_pushes` (6), `~learning_timeout` (s, 20),
+ * `~tidy_spacing` (m; objects closer than this are moved apart; default SetupCatalogue::objectSpacing), `~goal_tolerance` (m, 0.02), `~max_goal_pushes` (5), `~learning_timeout` (s, 20),
  * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
  * and the `world` file for the arena (embodiment_setup.h).
  */
@@ -97,8 +97,8 @@ class LoopModel : public Supervisor {
   std::string pose_source_ = "observation";
   int retries_ = 1;
   bool tidy_ = true, arrange_at_start_ = true;
-  double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.05, learning_timeout_ = 20.0;
-  int max_goal_pushes_ = 6;
+  double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.02, learning_timeout_ = 20.0;
+  int max_goal_pushes_ = 5;
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
