@@ -648,7 +648,7 @@ def report(args, cells, eval_objects, eval_why):
 
     # report.md
     md = ["# Study: %s" % os.path.basename(args.out), ""]
-    md.append("Command: `bash scripts/study.sh %s`" % " ".join(sys.argv[1:]))
+    md.append("Command: `bash scripts/study.sh %s`" % " ".join(a for a in sys.argv[1:] if a != "--report-only"))
     md.append("")
     md.append("World `%s`; designs %s; seeds %s; budget %d experiments per cell; %d of %d cells finished." % (
         args.world, ", ".join(args.designs), ",".join(map(str, args.seed_list)), args.budget, len(data),
@@ -784,10 +784,14 @@ def plots(out, designs, curve_rows, share_rows, objects):
     fig, ax = plt.subplots(figsize=(8, 5))
     for design in designs:
         rows = [r for r in curve_rows if r["design"] == design]
+        # Only where every seed has a point: past the fewest successful experiments of a seed, the mean would be
+        # over fewer and fewer seeds (the CSV keeps those rows, with their count).
+        everyone = max((r["seeds"] for r in rows), default=0)
+        rows = [r for r in rows if r["seeds"] == everyone]
         k = [r["experiments"] for r in rows]
         line, = ax.plot(k, [r["mean"] for r in rows], label=design)
         ax.fill_between(k, [r["ci_low"] for r in rows], [r["ci_high"] for r in rows], alpha=0.2, color=line.get_color())
-    ax.set_xlabel("experiments learned from")
+    ax.set_xlabel("experiments learned from (while every seed has that many)")
     ax.set_ylabel("RMS prediction error on the held-out set (m)")
     ax.set_title("Learning curves, mean and 95 % interval over seeds")
     ax.set_ylim(bottom=0)
