@@ -22,13 +22,6 @@ std::string checkScene(const FeatureVector& scene) {
 }
 }  // namespace
 
-core::Pose2D predictedEnd(const core::ObjectFeatures& object, const std::string& side, const core::Outcome& outcome) {
-  const double direction = object.yaw + core::pushAngleInObject(side);
-  const double c = std::cos(direction), s = std::sin(direction);
-  return {object.x + c * outcome.dx - s * outcome.dy, object.y + s * outcome.dx + c * outcome.dy,
-          core::normalizeAngle(object.yaw + outcome.dyaw)};
-}
-
 GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/GoalDesignNodelet"),
       loader_("xpersif::core::PushModel", "push model") {
@@ -311,14 +304,7 @@ std::vector<core::Experiment> GoalDesign::gridPushes(const std::string& object,
 double GoalDesign::predictedSpread(const core::ObjectFeatures& object) const {
   const auto footprint = footprints_.find(object.name);
   if (footprint == footprints_.end()) return INFINITY;
-  std::vector<double> spreads;
-  for (const auto& push : gridPushes(object.name, footprint->second)) {
-    const core::Prediction p = learner_->predict(core::PushInput{push, object});
-    spreads.push_back(std::hypot(p.std.dx, p.std.dy));
-  }
-  if (spreads.empty()) return INFINITY;
-  std::nth_element(spreads.begin(), spreads.begin() + spreads.size() / 2, spreads.end());
-  return spreads[spreads.size() / 2];
+  return core::predictedSpread(*learner_, object, gridPushes(object.name, footprint->second));
 }
 
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
@@ -365,29 +351,17 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
     throw std::runtime_error("no push of " + request.object + " is possible from where it is (for example: " +
                              refused + ")");
   }
-  // The push that minimises the expected squared distance to the target: the predicted end's distance squared
-  // plus, weighted, the variance of where the object ends (the trace of the outcome's covariance, the same in
-  // the push frame as in the world). A push the model knows beats one that only might land closer.
-  double best_cost = INFINITY, best_error = INFINITY, best_spread = 0;
-  for (const auto& c : candidates) {
-    const core::Prediction p = learner_->predict(core::PushInput{c, object});  // throws: missing features etc.
-    const core::Pose2D end = predictedEnd(object, c.side, p.mean);
-    const double error = std::hypot(end.x - request.target_x, end.y - request.target_y);
-    const double variance = p.std.dx * p.std.dx + p.std.dy * p.std.dy;
-    const double cost = error * error + uncertainty_weight_ * variance;
-    if (cost < best_cost) {
-      best_cost = cost;
-      best_error = error;
-      best_spread = std::sqrt(variance);
-      response.experiment = toMsg(c);
-    }
-  }
-  response.expected_error = best_error;
+  // The least expected squared distance to the target, the end's variance counted: a push the model is sure of
+  // beats one that only might land closer.
+  const core::PushChoice best =
+      core::bestPush(*learner_, object, request.target_x, request.target_y, candidates, uncertainty_weight_);
+  response.experiment = toMsg(best.experiment);
+  response.expected_error = best.expected_error;
   response.message = "push " + request.object + " on " + response.experiment.side + ", offset " +
                      core::describeNumber(response.experiment.offset) + " m, distance " +
                      core::describeNumber(response.experiment.distance) + " m: expected " +
-                     core::describeNumber(best_error) + " m from the target, give or take " +
-                     core::describeNumber(best_spread) + " m (" + std::to_string(candidates.size()) +
+                     core::describeNumber(best.expected_error) + " m from the target, give or take " +
+                     core::describeNumber(best.spread) + " m (" + std::to_string(candidates.size()) +
                      " candidates, model of " + std::to_string(learner_->sampleCount()) + " samples)";
 }
 

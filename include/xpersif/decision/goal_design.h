@@ -46,15 +46,14 @@
 #include "xpersif/Notions.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/footprint.h"
+#include "xpersif/core/goal_choice.h"
 #include "xpersif/core/motion.h"
 #include "xpersif/core/push_model.h"
 #include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {
 
-/// Where the object's centre ends, in the world, when it moves by @p outcome (push frame) after a push on
-/// @p side while its perceived pose is @p object.
-core::Pose2D predictedEnd(const core::ObjectFeatures& object, const std::string& side, const core::Outcome& outcome);
+using core::predictedEnd;  // core/goal_choice.h
 
 class GoalDesign : public Component {
  public:
