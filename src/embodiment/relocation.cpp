@@ -9,9 +9,14 @@
 namespace xpersif {
 
 std::string describePose(double x, double y, double yaw) {
-  char text[96];
-  std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f)", x, y, yaw);
-  return text;
+  // Millimetres for poses in an arena; a refused 1e308 or NaN shown whole (%.3f of 1e308 is 309 digits).
+  auto part = [](double v) {
+    if (!std::isfinite(v) || std::fabs(v) >= 1e6) return core::describeNumber(v);
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3f", v);
+    return std::string(text);
+  };
+  return "(" + part(x) + ", " + part(y) + ", " + part(yaw) + ")";
 }
 
 namespace {

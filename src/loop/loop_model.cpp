@@ -751,16 +751,18 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       ExperimentRecord record;
       runExperiment(choose.response.experiment, "goal", context, record);
       ++record_goal.request.pushes;
+      // Every goal push is stored, a failed one with its reason, as the designed experiments are.
+      RecordExperiment store;
+      store.request.record = record;
+      store.request.record.run_id = result.run_id;
+      const bool stored = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store).empty();
       if (record.status == "done") {
-        RecordExperiment store;
-        store.request.record = record;
-        store.request.record.run_id = result.run_id;
-        if (callPatiently(nodeHandle(), "knowledge_base/record_experiment", store).empty()) {
-          waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
-        }
+        if (stored) waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
         scene = record.after;
-      } else if (!getScene(&scene, &why)) {
-        break;
+      } else {
+        ROS_WARN("%s: goal %u (%s): a push failed: %s", name().c_str(), g + 1, design.response.object.c_str(),
+                 record.reason.c_str());
+        if (!getScene(&scene, &why)) break;
       }
       if (context.stopRequested()) break;
     }

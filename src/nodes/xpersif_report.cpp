@@ -169,7 +169,7 @@ int main(int argc, char** argv) {
         if (n < 0 || r.seq <= n) designed.push_back(r);
       }
       const auto training = pushSamples(designed);
-      failed[name] = static_cast<int>(kb->experimentCount(run.id, "failed"));
+      for (const auto& r : kb->experiments(run.id, "failed")) failed[name] += n < 0 || r.seq <= n;
       std::vector<int> checkpoints;
       for (int k = 0; k <= static_cast<int>(training.size()); ++k) checkpoints.push_back(k);
       curves.push_back(learningCurve(name, training, evaluation, config, checkpoints));
