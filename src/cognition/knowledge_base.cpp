@@ -37,7 +37,7 @@ CallRecord toMsg(const core::CallRecord& call) {
   m.kind = call.kind;
   m.name = call.name;
   m.outcome = call.outcome;
-  m.code = call.code ? static_cast<std::uint8_t>(*call.code) : ComponentEvent::NO_CODE;
+  m.code = call.code ? static_cast<std::uint8_t>(*call.code) : static_cast<std::uint8_t>(ComponentEvent::NO_CODE);
   m.reason = call.reason;
   m.effects = call.effects;
   m.duration = call.duration;

@@ -209,6 +209,21 @@ TEST_F(ComponentModel, CancelMidwayGivesPreemptedAndFailureGivesAbortedNeverConf
       << client.getState().getText();
 }
 
+TEST_F(ComponentModel, AGoalSentTheMomentThePreviousOneEndedIsAccepted) {
+  // The command is free before its result goes out: a client that sends the next goal as soon as it has a
+  // result never finds it busy (it did, now and then, when the result went out first).
+  ensureActive("/counter");
+  Client client("/counter/count_to", true);
+  ASSERT_TRUE(client.waitForServer(ros::Duration(10.0)));
+  double total = std::floor(counterTotal());
+  for (int i = 0; i < 30; ++i) {
+    client.sendGoal(goal(total + 1.0, 1.0));  // one step
+    ASSERT_TRUE(client.waitForResult(ros::Duration(10.0))) << "goal " << i;
+    ASSERT_EQ(client.getState(), State::SUCCEEDED) << "goal " << i << ": " << client.getState().getText();
+    total = client.getResult()->total;
+  }
+}
+
 TEST_F(ComponentModel, DeactivatingTheComponentAbortsItsRunningCommandAndRefusesNewGoals) {
   ensureActive("/counter");
   Client client("/counter/count_to", true);

@@ -203,6 +203,10 @@ class CommandServer : public CommandServerBase {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (context->halt_requested_) halt_reason = context->halt_reason_;
+      // Free before the result goes out: a client that sends its next goal the moment it has this one's result
+      // must not find the command busy. A goal that comes now waits in onGoal (joinWorker) until this thread has
+      // published the result and the event, so the events stay in order.
+      finished_ = true;
     }
     GoalHandle& gh = context->handle_;
     ComponentEvent event;
@@ -229,8 +233,6 @@ class CommandServer : public CommandServerBase {
     event.response = toYaml(result);
     event.duration = (ros::Time::now() - context->started()).toSec();
     events_.publish(event);
-    std::lock_guard<std::mutex> lock(mutex_);
-    finished_ = true;
   }
 
   ContractChecker<Goal> contract_;
