@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "xpersif/decision/decision_common.h"
+#include "xpersif/embodiment/robot_pose_source.h"  // sceneObstacles
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -327,14 +328,8 @@ void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Resp
   }
   // Only pushes MANIPULATION would accept from here (its planner: a free approach spot, no wall or object in
   // the way): a refused push teaches nothing and, chosen again from the same scene, would be refused again.
-  core::Obstacle pushed{request.object, object.x, object.y, object.yaw, footprint->second};
-  std::vector<core::Obstacle> others;
-  for (const auto& o : request.scene.objects) {
-    const auto f = footprints_.find(o.name);
-    if (o.name != request.object && f != footprints_.end()) {
-      others.push_back({o.name, o.position.x, o.position.y, o.yaw, f->second});
-    }
-  }
+  const core::Obstacle pushed{request.object, object.x, object.y, object.yaw, footprint->second};
+  const std::vector<core::Obstacle> others = sceneObstacles(request.scene, footprints_);  // planPush skips `pushed`
   core::PushOptions options;
   options.max_distance = max_push_;
   std::string refused;

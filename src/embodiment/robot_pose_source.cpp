@@ -110,17 +110,21 @@ std::optional<FeatureVector> RobotPoseSource::observation(double max_age) const 
   return *observation_;
 }
 
-std::vector<core::Obstacle> RobotPoseSource::obstacles(const std::map<std::string, core::Footprint>& footprints,
-                                                       double max_age) const {
+std::vector<core::Obstacle> sceneObstacles(const FeatureVector& scene,
+                                           const std::map<std::string, core::Footprint>& footprints) {
   std::vector<core::Obstacle> result;
-  const auto seen = observation(max_age);
-  if (!seen) return result;
-  for (const auto& object : seen->objects) {
+  for (const auto& object : scene.objects) {
     const auto footprint = footprints.find(object.name);
     if (footprint == footprints.end()) continue;
     result.push_back({object.name, object.position.x, object.position.y, object.yaw, footprint->second});
   }
   return result;
+}
+
+std::vector<core::Obstacle> RobotPoseSource::obstacles(const std::map<std::string, core::Footprint>& footprints,
+                                                       double max_age) const {
+  const auto seen = observation(max_age);
+  return seen ? sceneObstacles(*seen, footprints) : std::vector<core::Obstacle>{};
 }
 
 }  // namespace xpersif

@@ -119,11 +119,11 @@ TEST(DecisionGoalDesign, PredictedEndRotatesThePushFrameIntoTheWorld) {
   o.y = -0.1;
   o.yaw = 0.3;
   // "-x": along the object's +x axis, world direction 0.3.
-  auto end = predictedEnd(o, "-x", {0.05, 0.0, 0.0});
+  auto end = core::predictedEnd(o, "-x", {0.05, 0.0, 0.0});
   EXPECT_NEAR(end.x, 0.1 + 0.05 * std::cos(0.3), 1e-12);
   EXPECT_NEAR(end.y, -0.1 + 0.05 * std::sin(0.3), 1e-12);
   // "+y": along the object's -y axis; dy to the left of the push (the object's +x).
-  end = predictedEnd(o, "+y", {0.05, 0.02, 0.1});
+  end = core::predictedEnd(o, "+y", {0.05, 0.02, 0.1});
   const double d = 0.3 - M_PI / 2;
   EXPECT_NEAR(end.x, 0.1 + 0.05 * std::cos(d) - 0.02 * std::sin(d), 1e-12);
   EXPECT_NEAR(end.y, -0.1 + 0.05 * std::sin(d) + 0.02 * std::cos(d), 1e-12);

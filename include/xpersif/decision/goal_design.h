@@ -10,12 +10,13 @@
  *
  * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed
  * and, when the request gives a tolerance, whose pushes the model predicts within it (median spread of the end
- * over the grid of pushes below; while none is, within twice the best object's spread), chosen with a seeded generator (~seed), and a target ~min_target_distance..~max_target_distance (5-15 cm
- * in a 0.6 m arena)
+ * over the grid of pushes below; while none is, within twice the best object's spread), chosen with a seeded
+ * generator (~seed), and a target ~min_target_distance..~max_target_distance (5-15 cm in a 0.6 m arena)
  * away from it, at least ~wall_clearance (8 cm) from every wall and ~object_clearance (6 cm) from the other
  * objects.
  * choose_push: candidates = sides x ~offsets x ~distances plus ~random_candidates random pushes (seeded), less
- * those MANIPULATION's push planner (core::planPush, default options) would refuse from the scene; for each, the model's mean outcome (dx, dy in the push frame) is turned into the world (the push direction is
+ * those MANIPULATION's push planner (core::planPush, default options) would refuse from the scene; for each,
+ * the model's mean outcome (dx, dy in the push frame) is turned into the world (the push direction is
  * the object's perceived yaw plus the side's push angle, core::pushAngleInObject) and added to the object's
  * position; the push with the least expected squared distance to the target wins: the predicted end's distance
  * squared plus ~uncertainty_weight times the variance of the end (std of dx and dy), so a push the model is sure
@@ -27,7 +28,8 @@
  * circumradius): ~seed (1), ~objects (every object; a list restricts it), ~min_target_distance (L / 3),
  * ~max_target_distance (L), ~wall_clearance (c + 1.5 R), ~object_clearance (2 c), ~offsets (fractions of each
  * face's offset limit, [-0.75, -0.375, 0, 0.375, 0.75]), ~distances (fractions of L, [0.15, 0.3, ..., 0.9]),
- * ~random_candidates (256), ~uncertainty_weight (1; 0: the mean alone), ~model_topic (machine_learning/model), ~notions_topic (machine_learning/notions).
+ * ~random_candidates (256), ~uncertainty_weight (1; 0: the mean alone), ~model_topic (machine_learning/model),
+ * ~notions_topic (machine_learning/notions). The choices themselves are core/goal_choice.h's.
  */
 #pragma once
 
@@ -53,7 +55,6 @@
 
 namespace xpersif {
 
-using core::predictedEnd;  // core/goal_choice.h
 
 class GoalDesign : public Component {
  public:

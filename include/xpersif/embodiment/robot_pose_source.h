@@ -22,6 +22,10 @@
 
 namespace xpersif {
 
+/// The objects of @p scene as obstacles, with footprints from @p footprints (unknown names are skipped).
+std::vector<core::Obstacle> sceneObstacles(const FeatureVector& scene,
+                                           const std::map<std::string, core::Footprint>& footprints);
+
 class RobotPoseSource {
  public:
   /// Subscribes to @p odom_topic and @p observation_topic (resolved in @p nh's namespace).
