@@ -3,11 +3,14 @@
 #include <ode/ode.h>
 
 #include <algorithm>
+#include <array>
 #include <functional>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <mutex>
+
+#include <nlohmann/json.hpp>
 
 #include "xpersif/core/random_stream.h"
 #include "xpersif/core/validation.h"
@@ -1016,6 +1019,204 @@ PhysicsWorld::WheelState PhysicsWorld::wheels() const {
   s.left_command = impl_->left_command;
   s.right_command = impl_->right_command;
   return s;
+}
+
+namespace {
+
+using Json = nlohmann::json;
+
+/// A finite number at @p key of @p object, for restoreState's sentences.
+double stateNumber(const Json& object, const char* key, const std::string& where) {
+  const auto it = object.find(key);
+  if (it == object.end() || !it->is_number()) {
+    throw ValidationError("the world state has no number '" + std::string(key) + "' in " + where);
+  }
+  const double value = it->get<double>();
+  if (!std::isfinite(value)) throw ValidationError("the world state's " + where + "." + key + " is not finite");
+  return value;
+}
+
+template <std::size_t N>
+std::array<double, N> stateVector(const Json& object, const char* key, const std::string& where) {
+  const auto it = object.find(key);
+  if (it == object.end() || !it->is_array() || it->size() != N) {
+    throw ValidationError("the world state's " + where + "." + key + " is not a list of " + std::to_string(N) +
+                          " numbers");
+  }
+  std::array<double, N> values{};
+  for (std::size_t k = 0; k < N; ++k) {
+    if (!(*it)[k].is_number() || !std::isfinite((*it)[k].get<double>())) {
+      throw ValidationError("the world state's " + where + "." + key + "[" + std::to_string(k) +
+                            "] is not a finite number");
+    }
+    values[k] = (*it)[k].get<double>();
+  }
+  return values;
+}
+
+std::uint64_t stateCount(const Json& object, const char* key, const std::string& where) {
+  const auto it = object.find(key);
+  if (it == object.end() || !it->is_number_unsigned()) {
+    throw ValidationError("the world state has no whole number '" + std::string(key) + "' in " + where);
+  }
+  return it->get<std::uint64_t>();
+}
+
+}  // namespace
+
+std::string PhysicsWorld::saveState() const {
+  const Impl& w = *impl_;
+  // nlohmann writes the shortest text that reads back as the same double, so numbers survive bit for bit.
+  Json state;
+  state["world"] = spec_.name;
+  state["step"] = spec_.physics.step;
+  state["time"] = w.time;
+  state["steps"] = w.steps;
+  state["solver_seed"] = static_cast<std::uint64_t>(w.random_seed);
+  state["redraw_seed"] = redraw_seed_;
+  state["wheel_commands"] = {w.left_command, w.right_command};
+  state["wheel_angles"] = {w.left_angle, w.right_angle};
+  state["odometry"] = {w.odometry.x, w.odometry.y, w.odometry.yaw, w.odometry.linear, w.odometry.angular};
+  state["fall_height"] = w.fall_height;
+  state["blow_ups_in_a_row"] = w.blow_ups_in_a_row;
+  Json bodies = Json::array();
+  w.forEachBody([&](dBodyID b) {
+    const dReal* p = dBodyGetPosition(b);
+    const dReal* q = dBodyGetQuaternion(b);
+    const dReal* v = dBodyGetLinearVel(b);
+    const dReal* a = dBodyGetAngularVel(b);
+    bodies.push_back({{"name", w.bodyName(b)},
+                      {"position", {p[0], p[1], p[2]}},
+                      {"orientation", {q[0], q[1], q[2], q[3]}},
+                      {"linear", {v[0], v[1], v[2]}},
+                      {"angular", {a[0], a[1], a[2]}}});
+  });
+  state["bodies"] = bodies;
+  Json objects = Json::array();
+  for (std::size_t i = 0; i < w.objects.size(); ++i) {
+    const ObjectState& o = w.object_states[i];
+    objects.push_back({{"name", w.objects[i].first},
+                       {"friction", {o.friction_x, o.friction_y}},
+                       {"episodes", o.episodes},
+                       {"last_touch", o.last_touch}});
+  }
+  state["objects"] = objects;
+  return state.dump();
+}
+
+void PhysicsWorld::restoreState(const std::string& text) {
+  Impl& w = *impl_;
+  Json state;
+  try {
+    state = Json::parse(text);
+  } catch (const Json::exception& e) {
+    throw ValidationError(std::string("the world state is not JSON: ") + e.what());
+  }
+  if (!state.is_object()) throw ValidationError("the world state is not a JSON object");
+  // Everything is read and checked before anything changes.
+  const auto world = state.find("world");
+  if (world == state.end() || !world->is_string() || world->get<std::string>() != spec_.name) {
+    throw ValidationError("the world state is of world '" + (world != state.end() && world->is_string() ? world->get<std::string>() : std::string("?")) +
+                          "', not of '" + spec_.name + "'");
+  }
+  if (stateNumber(state, "step", "the state") != spec_.physics.step) {
+    throw ValidationError("the world state was taken with a physics step of " +
+                          describeNumber(state["step"].get<double>()) + " s, this world steps " +
+                          describeNumber(spec_.physics.step) + " s");
+  }
+  const double time = stateNumber(state, "time", "the state");
+  const std::uint64_t steps = stateCount(state, "steps", "the state");
+  const std::uint64_t solver_seed = stateCount(state, "solver_seed", "the state");
+  const std::uint64_t redraw_seed = stateCount(state, "redraw_seed", "the state");
+  const auto commands = stateVector<2>(state, "wheel_commands", "the state");
+  const auto angles = stateVector<2>(state, "wheel_angles", "the state");
+  const auto odometry = stateVector<5>(state, "odometry", "the state");
+  const double fall_height = stateNumber(state, "fall_height", "the state");
+  const std::uint64_t blow_ups = stateCount(state, "blow_ups_in_a_row", "the state");
+  std::vector<dBodyID> order;
+  w.forEachBody([&](dBodyID b) { order.push_back(b); });
+  const auto bodies = state.find("bodies");
+  if (bodies == state.end() || !bodies->is_array() || bodies->size() != order.size()) {
+    throw ValidationError("the world state does not have this world's " + std::to_string(order.size()) + " bodies");
+  }
+  std::vector<BodyState> body_states(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Json& body = (*bodies)[i];
+    const std::string name = w.bodyName(order[i]);
+    if (!body.is_object() || !body.contains("name") || body["name"] != name) {
+      throw ValidationError("the world state's body " + std::to_string(i) + " is not " + name);
+    }
+    const auto p = stateVector<3>(body, "position", name), v = stateVector<3>(body, "linear", name),
+               a = stateVector<3>(body, "angular", name);
+    const auto q = stateVector<4>(body, "orientation", name);
+    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (std::fabs(norm - 1) > 1e-6) throw ValidationError("the world state's " + name + ".orientation is not a unit quaternion");
+    BodyState& s = body_states[i];
+    std::copy(p.begin(), p.end(), s.position);
+    std::copy(q.begin(), q.end(), s.orientation);
+    std::copy(v.begin(), v.end(), s.linear);
+    std::copy(a.begin(), a.end(), s.angular);
+  }
+  const auto objects = state.find("objects");
+  if (objects == state.end() || !objects->is_array() || objects->size() != w.objects.size()) {
+    throw ValidationError("the world state does not have this world's " + std::to_string(w.objects.size()) + " objects");
+  }
+  std::vector<ObjectState> object_states(w.objects.size());
+  for (std::size_t i = 0; i < w.objects.size(); ++i) {
+    const Json& object = (*objects)[i];
+    const std::string& name = w.objects[i].first;
+    if (!object.is_object() || !object.contains("name") || object["name"] != name) {
+      throw ValidationError("the world state's object " + std::to_string(i) + " is not " + name);
+    }
+    const auto friction = stateVector<2>(object, "friction", name);
+    if (friction[0] < 0 || friction[1] < 0) throw ValidationError("the world state's " + name + ".friction is negative");
+    object_states[i].friction_x = friction[0];
+    object_states[i].friction_y = friction[1];
+    object_states[i].episodes = static_cast<int>(stateCount(object, "episodes", name));
+    object_states[i].last_touch = stateNumber(object, "last_touch", name);
+  }
+
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const BodyState& s = body_states[i];
+    dBodySetPosition(order[i], s.position[0], s.position[1], s.position[2]);
+    dBodySetQuaternion(order[i], s.orientation);
+    dBodySetLinearVel(order[i], s.linear[0], s.linear[1], s.linear[2]);
+    dBodySetAngularVel(order[i], s.angular[0], s.angular[1], s.angular[2]);
+    dBodySetForce(order[i], 0, 0, 0);
+    dBodySetTorque(order[i], 0, 0, 0);
+  }
+  // ODE moves a geom to the front of its space's list when it first moves after a collision pass, so the list's
+  // order (and with it the order of contacts, which the solver's result depends on) is a record of history.
+  // Re-adding the bodies' geoms in body order and computing every bounding box makes it a function of the
+  // spec alone.
+  for (dBodyID b : order) {
+    for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) {
+      if (dGeomGetSpace(g) != w.space) continue;
+      dSpaceRemove(w.space, g);
+      dSpaceAdd(w.space, g);
+    }
+  }
+  dSpaceClean(w.space);
+  w.time = time;
+  w.steps = steps;
+  w.random_seed = static_cast<unsigned long>(solver_seed);
+  setRedrawSeed(redraw_seed);
+  w.left_command = commands[0];
+  w.right_command = commands[1];
+  w.left_angle = angles[0];
+  w.right_angle = angles[1];
+  w.odometry = {odometry[0], odometry[1], odometry[2], odometry[3], odometry[4]};
+  w.object_states = object_states;
+  w.fall_height = fall_height;
+  w.blow_ups_in_a_row = static_cast<int>(blow_ups);
+  w.pending.clear();
+  w.saveGoodState();
+}
+
+std::string PhysicsWorld::checkpoint() {
+  const std::string state = saveState();
+  restoreState(state);
+  return state;
 }
 
 std::string PhysicsWorld::checkHealth() const { return impl_->health().what; }

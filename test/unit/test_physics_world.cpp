@@ -5,7 +5,10 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
+
+#include <nlohmann/json.hpp>
 
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/validation.h"
@@ -521,4 +524,122 @@ TEST(PhysicsWorld, FrictionIsRedrawnPerContactEpisodeFromTheSeed) {
   EXPECT_DOUBLE_EQ(d.objectFriction("cube"), during);
   EXPECT_THROW(d.objectFriction("khepera"), ValidationError);
   EXPECT_THROW(d.contactEpisodes("nothing"), ValidationError);
+}
+
+// ---- world states: a checkpoint taken mid-push, restored into another world of the spec, continues bit for bit ----
+
+namespace {
+
+std::vector<std::string> shippedWorlds() {
+  std::vector<std::string> paths;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
+    if (entry.path().extension() == ".yaml") paths.push_back(entry.path().string());
+  }
+  std::sort(paths.begin(), paths.end());
+  return paths;
+}
+
+/// The robot 7.5 cm behind the world's first object, driving into it (contacts, moving bodies, maybe a redraw).
+void startPushingFirstObject(PhysicsWorld& world) {
+  const Eigen::Vector3d at = world.bodyPose(world.spec().objects.at(0).name).translation();
+  const std::string robot = world.spec().robot.name;
+  for (double behind = 0.05;; behind += 0.005) {  // the nearest free place behind it, whatever the sizes
+    ASSERT_LT(behind, 0.3) << "no free place behind " << world.spec().objects[0].name;
+    if (world.checkPlacement(robot, planar(at.x() - behind, at.y() + 0.01, 0.0), true).ok()) {
+      world.setPose(robot, planar(at.x() - behind, at.y() + 0.01, 0.0), true);
+      break;
+    }
+  }
+  world.setVelocity(0.08, 0.05);
+}
+
+void goOn(PhysicsWorld& world, int steps) {
+  for (int i = 0; i < steps; ++i) {
+    world.setVelocity(i < steps / 2 ? 0.08 : -0.05, std::sin(i * 0.01));
+    ASSERT_TRUE(world.step().ok);
+  }
+}
+
+}  // namespace
+
+TEST(PhysicsWorld, ACheckpointRestoredIntoAnotherWorldContinuesBitForBit) {
+  for (const std::string& path : shippedWorlds()) {
+    SCOPED_TRACE(path);
+    const WorldSpec spec = loadWorldFile(path);
+    PhysicsWorld a(spec);
+    startPushingFirstObject(a);
+    run(a, 0.6);  // mid-push: the robot and the object move and touch
+    ASSERT_GT(a.bodyLinearVelocity(spec.objects[0].name).norm(), 1e-3) << "the checkpoint is taken mid-push";
+    const std::string state = a.checkpoint();
+
+    // Another world of the spec, with another history (other moves, so ODE's internal order differs).
+    PhysicsWorld b(spec);
+    b.setVelocity(-0.05, 1.0);
+    run(b, 0.3);
+    b.restoreState(state);
+    // ODE normalises a quaternion it is given, which may change its last bit: the checkpoint restored its own
+    // state for that reason, so both worlds hold the same normalised numbers.
+    EXPECT_EQ(b.saveState(), a.saveState()) << "both worlds are in the same state";
+    EXPECT_EQ(b.time(), a.time());
+    EXPECT_EQ(b.stepCount(), a.stepCount());
+
+    PhysicsWorld fresh(spec);  // as a restarted simulator: no history at all
+    fresh.restoreState(state);
+
+    goOn(a, 800);
+    goOn(b, 800);
+    goOn(fresh, 800);
+    EXPECT_EQ(a.saveState(), b.saveState()) << "after 800 more steps of pushing and backing off";
+    EXPECT_EQ(a.saveState(), fresh.saveState()) << "a fresh world, restored, after 800 more steps";
+    for (const auto& name : spec.bodyNames()) {
+      EXPECT_EQ(std::memcmp(a.bodyPose(name).data(), b.bodyPose(name).data(), sizeof(double) * 16), 0) << name;
+    }
+    EXPECT_EQ(a.objectFriction(spec.objects[0].name), b.objectFriction(spec.objects[0].name));
+  }
+}
+
+TEST(PhysicsWorld, AWorldStateThatIsNotOneOfThisWorldIsRefusedAndChangesNothing) {
+  const WorldSpec spec = loadWorldFile(shippedWorlds().front());
+  PhysicsWorld world(spec);
+  startPushingFirstObject(world);
+  run(world, 0.3);
+  const std::string good = world.saveState();
+  const auto with = [&](const std::function<void(nlohmann::json&)>& change) {
+    nlohmann::json state = nlohmann::json::parse(good);
+    change(state);
+    return state.dump();
+  };
+  const std::string object = spec.objects[0].name;
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"", "not JSON"},
+      {"{\"world\": ", "not JSON"},
+      {"[1, 2]", "not a JSON object"},
+      {with([](auto& s) { s["world"] = "elsewhere"; }), "of world 'elsewhere'"},
+      {with([](auto& s) { s["step"] = 0.5; }), "physics step"},
+      {with([](auto& s) { s.erase("time"); }), "'time'"},
+      {with([](auto& s) { s["steps"] = -3; }), "'steps'"},
+      {with([](auto& s) { s["bodies"].erase(0); }), "bodies"},
+      {with([&](auto& s) { s["bodies"][0]["name"] = object; }), "body 0 is not"},
+      {with([](auto& s) { s["bodies"][1]["position"] = {0, 0}; }), "position is not a list of 3 numbers"},
+      {with([](auto& s) { s["bodies"][1]["position"][2] = "high"; }), "position[2] is not a finite number"},
+      {with([](auto& s) { s["bodies"][1]["orientation"] = {2, 0, 0, 0}; }), "not a unit quaternion"},
+      {with([](auto& s) { s["objects"] = nlohmann::json::array(); }), "objects"},
+      {with([](auto& s) { s["objects"][0]["friction"] = {-1, 0.5}; }), "friction is negative"},
+      {with([](auto& s) { s["objects"][0].erase("episodes"); }), "'episodes'"},
+  };
+  for (const auto& [text, words] : bad) {
+    try {
+      world.restoreState(text);
+      ADD_FAILURE() << "accepted: " << text.substr(0, 200);
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(world.saveState(), good) << "a refused state changes nothing";
+  }
+  // Numbers beyond double's range read as infinite: refused too.
+  std::string huge = good;
+  const std::size_t at = huge.find("\"time\":") + 7;
+  huge.replace(at, huge.find(',', at) - at, "1e999");
+  EXPECT_THROW(world.restoreState(huge), ValidationError);
+  EXPECT_EQ(world.saveState(), good);
 }

@@ -113,6 +113,20 @@ class PhysicsWorld {
   /// How many contact episodes with the robot an object has had since the start or the last reset.
   int contactEpisodes(const std::string& object) const;
 
+  /// Everything the world's future depends on, as JSON text with exact numbers: every body's pose, velocity and
+  /// name, the physics clock and step count, the solver's random seed, the redraw seed, the wheels' commands and
+  /// angles, odometry, the objects' frictions and contact episodes, and the blow-up bookkeeping.
+  std::string saveState() const;
+  /// Puts this world in a state saveState() gave, of a world of the same spec (the same bodies in the same order,
+  /// the same physics step and solver). ODE's collision order, which depends on the history of moves, is put in a
+  /// canonical order, so that from here on this world continues bit for bit as any other world of the spec
+  /// restored from the same state, in this process or another one (see checkpoint()).
+  /// @throws ValidationError with one sentence, and nothing changed, when the text is not such a state
+  void restoreState(const std::string& state);
+  /// saveState(), then restoreState() of it: the world goes on exactly as a fresh world restored from the returned
+  /// text will. A run that may have to be resumed takes one at every experiment boundary.
+  std::string checkpoint();
+
   /// "" when every body is finite and slower than max_speed, else what is wrong.
   std::string checkHealth() const;
   /// Test hook: push a non-finite (or, with @p explode, a huge) force into @p body for the next step.
