@@ -1,15 +1,18 @@
 #!/usr/bin/env bash
-# The lockstep loop is deterministic (issue 13): the same campaign (6 experiments and 1 goal, one seed), run on a
-# fresh system each time, gives the same knowledge base, every stored field of every experiment, goal and
-# notion (times aside: scripts/compare_kb.py):
-#   first   uninterrupted;
-#   second  uninterrupted again;
-#   resumed stopped with `xpersif stop` once STOP_AFTER experiments are stored, then `xpersif run ... --resume`;
-#   killed  the knowledge base's manager SIGKILLed once STOP_AFTER experiments are stored: it is respawned, LOOPMODEL
-#           restarts the knowledge base and the run goes on.
-# (A whole system killed and restarted cannot resume deterministically yet: the world's state would have to be
-# restored from a checkpoint, bit for bit, with the physics clock; see the issue 13 note.)
-# Usage: determinism.sh [WORLD [DESIGN]]   (default: worlds/default.yaml, curiosity)
+# The lockstep loop is deterministic (issue 13), and so is a run interrupted in any of the ways a run can be
+# (issue 19): the same campaign (6 experiments and 1 goal, one seed), run on a fresh system each time, gives the
+# same knowledge base, every stored field of every experiment, goal and notion (times aside: scripts/compare_kb.py):
+#   first       uninterrupted;
+#   second      uninterrupted again;
+#   resumed     stopped with `xpersif stop` once STOP_AFTER experiments are stored, then `xpersif run ... --resume`;
+#   kb_manager, sim_manager, embodiment_manager
+#               that manager SIGKILLed once STOP_AFTER experiments are stored (mid-experiment, as a rule): roslaunch
+#               respawns it, LOOPMODEL restarts its components, puts the world back in the state the interrupted
+#               experiment began from (XPERSim's checkpoint in the knowledge base) and does that experiment again;
+#   system      every process of the system SIGKILLed at that moment (the master, roslaunch, every manager), the
+#               system started again on the same knowledge base, and the run resumed from the stored world state.
+# Usage: determinism.sh [WORLD [DESIGN]]   (default: worlds/default.yaml, curiosity); ONLY="system sim_manager"
+# runs the first take and those.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 world=${1:-$repo/worlds/default.yaml}
@@ -45,20 +48,39 @@ take() {  # take NAME [resume|kill]
     wait "$runner" || true  # a stopped run ends unsuccessfully
     echo "determinism: $name: stopped: $(tail -1 "$work/$name.run1.log") ($(stored "$work/$name.db") stored)"
     xpersif run "${campaign[@]}" --resume | tail -1
-  elif [ "$interrupt" = kill ]; then
+  elif [ -n "$interrupt" ]; then  # kill:MANAGER or system
     xpersif run "${campaign[@]}" >"$work/$name.run1.log" 2>&1 &
     local runner=$!
     until [ "$(stored "$work/$name.db")" -ge "$stop_after" ] || ! kill -0 "$runner" 2>/dev/null; do sleep 0.2; done
-    local manager="" pid
-    # This take's manager: the one talking to this take's master (other systems may run on the machine).
-    for pid in $(pgrep -f "__name:=kb_manager"); do
-      tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
-    done
-    [ -n "$manager" ] || { echo "determinism: no kb_manager process to kill"; exit 1; }
-    kill -KILL "$manager"
-    echo "determinism: $name: killed kb_manager (pid $manager) after $(stored "$work/$name.db") experiments"
-    wait "$runner" || { cat "$work/$name.run1.log"; exit 1; }
-    tail -1 "$work/$name.run1.log"
+    if [ "$interrupt" = system ]; then
+      # Every process that talks to this take's master, and the master and roslaunch themselves.
+      local pids="$launch" pid
+      for pid in $(pgrep -f "ros|nodelet|xpersif" || true); do
+        [ "$pid" = "$$" ] || [ "$pid" = "$runner" ] && continue
+        tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && pids="$pids $pid"
+      done
+      kill -KILL $pids 2>/dev/null || true
+      wait "$launch" 2>/dev/null || true
+      wait "$runner" 2>/dev/null || true
+      echo "determinism: $name: killed the whole system ($(echo $pids | wc -w) processes) after $(stored "$work/$name.db") experiments"
+      sleep 1
+      roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch world:="$world" database:="$work/$name.db" \
+        run_dir:="$work/$name" snapshot:=false trace_file:="${TRACE:+$work/$name.trace2}" >>"$work/$name.launch.log" 2>&1 &
+      launch=$!
+      xpersif wait --timeout 180 /xpersif/loop_model >/dev/null || { tail -20 "$work/$name.launch.log"; exit 1; }
+      xpersif run "${campaign[@]}" --resume | tail -1
+    else
+      local manager_name=${interrupt#kill:} manager=""
+      # This take's manager: the one talking to this take's master (other systems may run on the machine).
+      for pid in $(pgrep -f "__name:=$manager_name" || true); do
+        tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
+      done
+      [ -n "$manager" ] || { echo "determinism: no $manager_name process to kill"; exit 1; }
+      kill -KILL "$manager"
+      echo "determinism: $name: killed $manager_name (pid $manager) after $(stored "$work/$name.db") experiments"
+      wait "$runner" || { cat "$work/$name.run1.log"; exit 1; }
+      tail -1 "$work/$name.run1.log"
+    fi
   else
     xpersif run "${campaign[@]}" | tail -1
   fi
@@ -68,14 +90,21 @@ take() {  # take NAME [resume|kill]
   launch=0
 }
 
-[ -n "${ONLY_KILL:-}" ] || take first
-[ -n "${ONLY_KILL:-}" ] || take second
-[ -n "${ONLY_KILL:-}" ] || take resumed resume
-take killed kill
-failed=0
-for other in second resumed killed; do
+takes="second resumed kb_manager sim_manager embodiment_manager system"
+take first
+for name in ${ONLY:-$takes}; do
+  case $name in
+    second) take second ;;
+    resumed) take resumed resume ;;
+    system) take system system ;;
+    *) take "$name" "kill:$name" ;;
+  esac
+done
+failed=0 compared=0
+for other in ${ONLY:-$takes}; do
   echo "determinism: first against $other:"
+  compared=$((compared + 1))
   /usr/bin/python3 "$repo/scripts/compare_kb.py" "$work/first.db" "$work/$other.db" || failed=$((failed + 1))
 done
-echo "$((3 - failed)) passed, $failed failed"
+echo "$((compared - failed)) passed, $failed failed"
 [ "$failed" -eq 0 ]

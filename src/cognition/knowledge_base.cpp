@@ -197,6 +197,48 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
         response.message = "stored goal " + std::to_string(stored.id) + " of run " + std::to_string(stored.run_id);
       });
 
+  // ---- record_world_state / get_world_state ----------------------------------------------------------
+  core::Contract record_state = operation("record_world_state", "xpersif/RecordWorldState",
+                                          "store XPERSim's world state at the start of a step of a run");
+  record_state.parameters = {"?run", "?step"};
+  record_state.preconditions = {{"running(?run)", "the run (0: the current one) must exist and be running"}};
+  record_state.effects = {"world_state_recorded(?run, ?step)"};
+  ContractChecker<RecordWorldState::Request> record_state_contract(record_state);
+  record_state_contract
+      .bind([](const RecordWorldState::Request& r) {
+        return core::Bindings{{"?run", runText(r.run_id)}, {"?step", std::to_string(r.step)}};
+      })
+      .check("running(?run)", [this](const RecordWorldState::Request& r) { return checkRun(r.run_id, true); });
+  addOperation<RecordWorldState>(
+      record_state_contract,
+      [](const RecordWorldState::Request& r) {
+        if (r.state.empty()) throw core::ValidationError("state is empty; it is required");
+        core::requireMaxLength("state", r.state, core::KnowledgeBase::kMaxWorldStateBytes);
+      },
+      [this](const RecordWorldState::Request& r, RecordWorldState::Response& response) {
+        const std::int64_t run = resolveRun(r.run_id);
+        store()->recordWorldState(run, r.step, r.state);
+        response.message = "stored the world state at step " + std::to_string(r.step) + " of run " + std::to_string(run);
+      });
+
+  core::Contract get_state = operation("get_world_state", "xpersif/GetWorldState",
+                                       "the world state stored for a step of a run");
+  get_state.parameters = {"?run"};
+  get_state.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  ContractChecker<GetWorldState::Request> get_state_contract(get_state);
+  get_state_contract.bind([](const GetWorldState::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const GetWorldState::Request& r) { return checkRun(r.run_id, false); });
+  addOperation<GetWorldState>(
+      get_state_contract, nullptr,
+      [this](const GetWorldState::Request& r, GetWorldState::Response& response) {
+        const std::int64_t run = resolveRun(r.run_id);
+        const auto state = store()->worldState(run, r.step);
+        response.found = state.has_value();
+        if (state) response.state = *state;
+        response.message = (state ? "the world state at step " : "no world state stored for step ") +
+                           std::to_string(r.step) + " of run " + std::to_string(run);
+      });
+
   // ---- get_notions -----------------------------------------------------------------------------------
   core::Contract notions = operation("get_notions", "xpersif/GetNotions", "the notions learned in a run");
   notions.parameters = {"?run"};

@@ -162,7 +162,8 @@ void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
 }
 
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
-  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time};
+  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time,
+            message->epoch};
   std::function<void(const Tick&)> callback;
   bool rejoin = false;
   {

@@ -354,6 +354,15 @@ void Supervisor::monitorLoop() {
   }
 }
 
+std::vector<std::string> Supervisor::lostComponents() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::string> lost;
+  for (const auto& [name, observed] : observed_) {
+    if (observed.lost) lost.push_back(name);
+  }
+  return lost;
+}
+
 LifecycleState Supervisor::lastKnownState(const std::string& name) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = observed_.find(name);

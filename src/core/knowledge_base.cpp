@@ -118,6 +118,17 @@ CREATE TABLE facts(
   PRIMARY KEY(run_id, predicate, subject));
 )SQL";
 
+// Schema 4: XPERSim's world state at the start of a run's steps (experiments, then goals), so that a resumed run,
+// whatever died, goes on from the world as it was (core::PhysicsWorld::saveState's JSON text).
+const char* const kWorldStatesSchema = R"SQL(
+CREATE TABLE world_states(
+  run_id    INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  step      INTEGER NOT NULL CHECK(step >= 0),
+  state     TEXT NOT NULL CHECK(json_valid(state)),
+  created   TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  PRIMARY KEY(run_id, step));
+)SQL";
+
 void requireText(const std::string& field, const std::string& text, bool allow_empty = false) {
   if (!allow_empty && text.empty()) throw ValidationError(field + " is empty; it is required");
   throwIfInvalid(checkMaxLength(field, text, KnowledgeBase::kMaxTextLength));
@@ -330,6 +341,10 @@ void KnowledgeBase::initialize() {
       // Schema 2 kept no calls: a migrated database starts with none, and so with no facts.
       exec_script(kCallsSchema, "add the tables of calls, effects and facts");
       now = 3;
+    }
+    if (now == 3) {
+      exec_script(kWorldStatesSchema, "add the table of world states");
+      now = 4;
     }
     Statement(*this, ("PRAGMA user_version=" + std::to_string(now)).c_str()).run();
     transaction.commit();
@@ -688,6 +703,37 @@ std::vector<Notion> KnowledgeBase::notions(std::int64_t run_id) {
                             static_cast<int>(select.integer(4)), select.text(5)});
   }
   return result;
+}
+
+// ---- world states --------------------------------------------------------------------------------------
+
+void KnowledgeBase::recordWorldState(std::int64_t run_id, std::int64_t step, const std::string& state) {
+  if (step < 0) throw ValidationError("step is " + std::to_string(step) + "; it must be 0 or more");
+  if (state.empty()) throw ValidationError("state is empty; it is required");
+  if (state.size() > kMaxWorldStateBytes) {
+    throw ValidationError("state has " + std::to_string(state.size()) + " bytes; at most " +
+                          std::to_string(kMaxWorldStateBytes) + " are stored");
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  Transaction transaction(*this);
+  requireRun(run_id);
+  {
+    Statement valid(*this, "SELECT json_valid(?)");
+    valid.bind(state).step();
+    if (valid.integer(0) == 0) throw ValidationError("state is not JSON text");
+  }
+  // A step taken again (a resumed or redone one) replaces its state: the world as it was when it began.
+  Statement insert(*this, "INSERT OR REPLACE INTO world_states(run_id, step, state) VALUES (?, ?, ?)");
+  insert.bind(run_id).bind(step).bind(state).run();
+  transaction.commit();
+}
+
+std::optional<std::string> KnowledgeBase::worldState(std::int64_t run_id, std::int64_t step) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Statement select(*this, "SELECT state FROM world_states WHERE run_id = ? AND step = ?");
+  select.bind(run_id).bind(step);
+  if (!select.step()) return std::nullopt;
+  return select.text(0);
 }
 
 // ---- goals ---------------------------------------------------------------------------------------------

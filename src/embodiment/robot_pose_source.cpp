@@ -21,6 +21,13 @@ void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
   const auto& p = odom->pose.pose;
   const core::Pose2D pose{p.position.x, p.position.y, yawOf(p.orientation)};
   std::lock_guard<std::mutex> lock(mutex_);
+  if (odom->header.stamp < odometry_stamp_) {
+    // Time went backwards (a restarted or reset simulator): what was seen on the old clock is no fix and no
+    // observation of the world on the new one, and a fix waiting for its odometry would wait for ever.
+    pending_fix_.reset();
+    observation_.reset();
+    correction_.reset();
+  }
   try {
     correction_.addOdometry(odom->header.stamp.toSec(), pose);
   } catch (const std::exception& e) {

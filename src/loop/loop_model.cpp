@@ -14,12 +14,15 @@
 #include "xpersif/ExecutePlanAction.h"
 #include "xpersif/FinishRun.h"
 #include "xpersif/GetFeatures.h"
+#include "xpersif/GetWorldState.h"
 #include "xpersif/MakePlan.h"
 #include "xpersif/Predict.h"
 #include "xpersif/RecordExperiment.h"
 #include "xpersif/RecordGoal.h"
+#include "xpersif/RecordWorldState.h"
 #include "xpersif/SetPose.h"
 #include "xpersif/StartRun.h"
+#include "xpersif/WorldState.h"
 #include "xpersif/core/motivation.h"
 #include "xpersif/ros/experiment_conversions.h"
 
@@ -418,6 +421,66 @@ void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
            learning_timeout_);
 }
 
+void LoopModel::onComponentLost(const SupervisedComponent& component, const std::string& reason) {
+  (void)component;
+  (void)reason;
+  ++losses_;
+}
+
+std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) {
+  Spending spending(wall_spent_, "checkpoint");
+  WorldState checkpoint;
+  std::string why = callPatiently(nodeHandle(), "xpersim/checkpoint", checkpoint);
+  if (why.empty()) {
+    RecordWorldState record;
+    record.request.run_id = run_id;
+    record.request.step = step;
+    record.request.state = checkpoint.response.state;
+    why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", record);
+    // Kept in memory all the same: a step that is done again (a component lost) restores it from here.
+    if (!why.empty()) why = "the knowledge base did not store it: " + why;
+  }
+  if (!why.empty()) {
+    ROS_WARN("%s: no world state at step %u (a resume from there will start from the world as it is then): %s",
+             name().c_str(), step, why.c_str());
+  }
+  return checkpoint.response.state;
+}
+
+std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t step, const std::string& state) {
+  Spending spending(wall_spent_, "checkpoint");
+  WorldState restore;
+  restore.request.state = state;
+  // Time goes on after the latest the loop saw, plus a margin for what others saw after it.
+  restore.request.min_clock = latest_clock_ + 1.0;
+  if (state.empty()) {
+    GetWorldState stored;
+    stored.request.run_id = run_id;
+    stored.request.step = step;
+    std::string why = callPatiently(nodeHandle(), "knowledge_base/get_world_state", stored);
+    if (!why.empty()) return why;
+    if (!stored.response.found) return "no world state is stored for step " + std::to_string(step);
+    restore.request.state = stored.response.state;
+  }
+  return callPatiently(nodeHandle(), "xpersim/restore", restore);
+}
+
+std::string LoopModel::waitForComponents(Run::Context& context, double seconds) {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(seconds);
+  std::vector<std::string> lost = lostComponents();
+  while (!lost.empty()) {
+    if (context.stopRequested()) return "stopped while components were lost";
+    if (ros::WallTime::now() > until) {
+      std::string names;
+      for (const auto& n : lost) names += (names.empty() ? "" : ", ") + n;
+      return names + " did not come back within " + core::describeNumber(seconds) + " s";
+    }
+    ros::WallDuration(0.1).sleep();
+    lost = lostComponents();
+  }
+  return "";
+}
+
 std::string LoopModel::gate(Run::Context& context, bool confirm_each) {
   auto stopping = [&]() -> std::string {
     if (context.cancelRequested()) return "cancelled";
@@ -491,6 +554,7 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   spending.emplace(wall_spent_, "execution");
   execution.sendGoal(goal);
   while (!execution.getState().isDone()) {
+    latest_clock_ = std::max(latest_clock_, ros::Time::now().toSec());
     if (context.stopRequested()) {
       execution.cancelGoal();
       execution.waitForResult(ros::Duration(10.0));
@@ -622,8 +686,28 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     return CommandOutcome::aborted(result.message);
   };
 
+  // The world as it was at the step the run resumes at (a restarted simulator starts from the world file).
+  // A world just restored is not checkpointed again: that would normalise its quaternions twice.
+  bool world_restored = false;
+  if (start.response.resumed) {
+    const std::uint32_t step = done < goal.experiments ? done : goal.experiments + start.response.goals_done;
+    why = restoreCheckpoint(result.run_id, step);
+    if (why.empty()) {
+      world_restored = true;
+      ROS_INFO("%s: resumed run %lu from the world state of step %u", name().c_str(),
+               static_cast<unsigned long>(result.run_id), step);
+    } else {
+      ROS_WARN("%s: resuming run %lu from the world as it is: %s", name().c_str(),
+               static_cast<unsigned long>(result.run_id), why.c_str());
+    }
+  }
+  std::string step_state;  // the world state at the start of the current step
+
   // ---- experimentation state ----
   while (done < goal.experiments) {
+    if (!world_restored) step_state = takeCheckpoint(result.run_id, done);
+    world_restored = false;
+    const std::uint64_t losses_before = losses_;
     why = gate(context, goal.confirm_each);
     if (!why.empty()) return ended(why);
     setState("experimenting");
@@ -663,6 +747,26 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     ExperimentRecord record;
     runExperiment(experiment, design, context, record);
     if (context.stopRequested() && record.status != "done") return ended("stopped during an experiment");
+    // A failure may be the first sign of a lost component: give the supervisor its heartbeat timeout to tell.
+    if (record.status != "done" && losses_ == losses_before) {
+      ros::WallDuration(heartbeatTimeout() + 0.5).sleep();
+    }
+    if (losses_ != losses_before && !step_state.empty()) {
+      // A component was lost during the experiment: what it did is not what an uninterrupted run would have
+      // done. It is not stored; once every component is back, the world goes back to the step's state and the
+      // same experiment (the same design stream) is done again.
+      ROS_WARN("%s: a component was lost during experiment %u (%s); doing it again from the world as it was",
+               name().c_str(), done + 1, record.status == "done" ? "it finished" : record.reason.c_str());
+      why = waitForComponents(context, 180.0);
+      if (why.empty()) why = restoreCheckpoint(result.run_id, done, step_state);
+      if (!why.empty()) return ended("cannot do experiment " + std::to_string(done + 1) + " again: " + why);
+      if (chosen) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        next_experiments_.push_front(experiment);
+      }
+      world_restored = true;
+      continue;
+    }
     RecordExperiment store;
     store.request.record = record;
     store.request.record.run_id = result.run_id;
@@ -694,6 +798,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     publishProgress(&context);
   }
   for (std::uint32_t g = start.response.goals_done; g < goal.goals; ++g) {
+    if (!world_restored) takeCheckpoint(result.run_id, goal.experiments + g);
+    world_restored = false;
     why = gate(context, goal.confirm_each);  // sliding autonomy holds in both phases
     if (!why.empty()) return ended(why);
     FeatureVector scene;

@@ -56,6 +56,10 @@ void Observation::onActivate() {
     // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
     // idle tick shows the standing world again (to whoever waits for a new frame).
     // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
+    if (t.epoch != epoch_) {  // the world's state was restored: start the schedule again, as a fresh sensor does
+      epoch_ = t.epoch;
+      next_due_ = 0;
+    }
     if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
     bool published = false;
     auto camera = camera_.camera();

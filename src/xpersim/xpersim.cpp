@@ -22,6 +22,7 @@
 #include "xpersif/LockstepTick.h"
 #include "xpersif/Step.h"
 #include "xpersif/WheelSpeeds.h"
+#include "xpersif/WorldState.h"
 #include "xpersif/component/message_checks.h"
 #include "xpersif/ros/conversions.h"
 
@@ -30,6 +31,7 @@ namespace xpersif {
 namespace {
 
 constexpr std::int64_t kMaxStepsPerCall = 100000;
+constexpr std::size_t kMaxWorldStateBytes = 4u << 20;  ///< a world state is a few kB per body
 
 core::Contract operation(const std::string& name, const std::string& type, const std::string& description,
                          std::vector<std::string> effects = {}) {
@@ -186,6 +188,63 @@ void XPerSim::declareOperations() {
                           publishSensorsLocked();
                           response.message = "reset to t=0";
                         });
+
+  // A run that may be resumed takes a checkpoint at every experiment boundary; a resumed run restores one. Both
+  // change the world's state (a checkpoint restores its own), so both wait for a world that stands: no
+  // command may be moving it.
+  auto requireStandingWorld = [this]() {
+    if (lockstep_ && lockstep_->wantsTime()) {
+      throw core::UnavailableError("a command is moving the world (a lockstep participant wants time): take or "
+                                    "restore a world state between commands");
+    }
+  };
+  core::Contract checkpoint = operation("checkpoint", "xpersif/WorldState",
+                                        "the world's whole state, from which it goes on exactly as a restored world would");
+  checkpoint.preconditions = {{"standing(sim)", "no command is moving the world"}};
+  ContractChecker<WorldState::Request> checkpoint_contract(checkpoint);
+  checkpoint_contract.check("standing(sim)", [this](const WorldState::Request&) -> std::string {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world" : "";
+  });
+  addOperation<WorldState>(
+      checkpoint_contract,
+      [](const WorldState::Request& request) {
+        if (!request.state.empty()) throw core::ValidationError("state must be empty: ~checkpoint takes a state, ~restore gives one");
+      },
+      [this, requireStandingWorld](const WorldState::Request&, WorldState::Response& response) {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        requireStandingWorld();
+        response.state = world_->checkpoint();
+        response.physics_time = world_->time();
+        restoredLocked("checkpoint");
+        response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
+      });
+
+  core::Contract restore = operation("restore", "xpersif/WorldState", "put the world back in a state ~checkpoint gave");
+  restore.preconditions = {{"standing(sim)", "no command is moving the world"}};
+  ContractChecker<WorldState::Request> restore_contract(restore);
+  restore_contract.check("standing(sim)", [this](const WorldState::Request&) -> std::string {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world" : "";
+  });
+  addOperation<WorldState>(
+      restore_contract,
+      [](const WorldState::Request& request) {
+        if (request.state.empty()) throw core::ValidationError("state is empty: give a state that ~checkpoint gave");
+        core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);
+        core::requireMaxLength("state", request.state, kMaxWorldStateBytes);
+      },
+      [this, requireStandingWorld](const WorldState::Request& request, WorldState::Response& response) {
+        std::lock_guard<std::mutex> lock(world_mutex_);
+        requireStandingWorld();
+        const double clock = std::max(simTimeLocked(), request.min_clock);
+        world_->restoreState(request.state);  // a state of another world is refused with a sentence, nothing changed
+        // Simulated time never runs backwards in one simulator: the clock stays, the idle time makes up the difference.
+        idle_time_ = std::max(0.0, clock - world_->time());
+        response.physics_time = world_->time();
+        restoredLocked("restore");
+        response.message = "restored the world at t=" + core::describeNumber(world_->time()) + " s of physics";
+      });
 
   core::Contract set_pose = operation("set_pose", "xpersif/SetPose", "place the robot or an object",
                                       {"at(?name, ?pose)"});
@@ -550,6 +609,22 @@ void XPerSim::stopThread() {
   if (thread_.joinable()) thread_.join();
 }
 
+void XPerSim::restoredLocked(const std::string& what) {
+  ++epoch_;  // sensors start their frame schedules again, as fresh ones after a restart do
+  if (lockstep_) lockstep_->restartSchedules();
+  if (!halted_.empty()) {
+    halted_.clear();
+    paused_ = false;
+    wake_.notify_all();
+    lockstep_wake_.notify_all();
+  }
+  next_frame_ = next_sensors_ = simTimeLocked();
+  restart_pacing_ = true;
+  traceLocked(what);
+  publishFrameLocked();
+  publishSensorsLocked();
+}
+
 void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh) {
   LockstepTick tick;
   tick.clock = lockstep_clock_;
@@ -560,6 +635,7 @@ void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::strin
   tick.physics_time = world_->time();
   tick.fresh = fresh;
   tick.participants = lockstep_->participants();
+  tick.epoch = epoch_;
   tick_pub_.publish(tick);
 }
 
@@ -651,6 +727,12 @@ void XPerSim::lockstepLoop() {
       publishTickLocked(LockstepTick::SENSE, {});
       lockstep_wake_.notify_all();  // the step operation waits for its ticks
       continue;
+    }
+    // With nobody taking part, the clock announces itself: participants of an older clock (this simulator
+    // restarted while their managers lived on) hear a newer one and join it; nothing else would wake them.
+    if (lockstep_->participants().empty() && now - last_announce_wall_ >= 0.5) {
+      last_announce_wall_ = now;
+      publishTickLocked(lockstep_->phase() == Phase::Sense ? LockstepTick::SENSE : LockstepTick::ACT, {});
     }
     // Reports, joins, leaves and step requests wake it; the timeout only paces the late-participant check.
     lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));

@@ -490,8 +490,8 @@ TEST(KnowledgeBase, RefusesFilesThatAreNotItsDatabase) {
   // A newer schema.
   const std::string newer = dir.file("newer.sqlite");
   { KnowledgeBase::open(newer); }
-  execRaw(newer, "PRAGMA user_version = 4");
-  EXPECT_NE(openError(newer).find("has schema version 4, newer than this program's (3)"), std::string::npos)
+  execRaw(newer, "PRAGMA user_version = 5");
+  EXPECT_NE(openError(newer).find("has schema version 5, newer than this program's (4)"), std::string::npos)
       << openError(newer);
   // A directory that does not exist.
   EXPECT_NE(openError(dir.file("no/such/dir/kb.sqlite")).find("cannot be opened"), std::string::npos);
@@ -568,7 +568,7 @@ TEST(KnowledgeBase, ResumeContinuesTheLatestUnfinishedRunOfThatName) {
 
 namespace {
 /// What schema 3 added; dropping it turns a database back into schema 2's layout.
-const char* const kDropSchemaThree = "DROP TABLE facts; DROP TABLE effects; DROP TABLE calls; ";
+const char* const kDropSchemaThree = "DROP TABLE world_states; DROP TABLE facts; DROP TABLE effects; DROP TABLE calls; ";
 
 CallRecord call(std::int64_t run_id, double time, const std::string& component, const std::string& kind,
                 const std::string& name, std::vector<std::string> effects = {}) {
@@ -592,6 +592,32 @@ std::vector<std::string> factLiterals(KnowledgeBase& kb, std::int64_t run_id) {
 }
 }  // namespace
 
+TEST(KnowledgeBase, WorldStatesAreStoredPerStepReplacedWhenTakenAgainAndBadOnesRefused) {
+  auto kb = KnowledgeBase::open(":memory:");
+  const RunInfo run = kb->createRun("states", "{}", 1, "random");
+  EXPECT_FALSE(kb->worldState(run.id, 0).has_value());
+  kb->recordWorldState(run.id, 0, R"({"time": 0.5})");
+  kb->recordWorldState(run.id, 1, R"({"time": 1.5})");
+  kb->recordWorldState(run.id, 1, R"({"time": 2.5})");  // step 1 redone: the world as it began the second time
+  EXPECT_EQ(kb->worldState(run.id, 0).value_or(""), R"({"time": 0.5})");
+  EXPECT_EQ(kb->worldState(run.id, 1).value_or(""), R"({"time": 2.5})");
+  EXPECT_FALSE(kb->worldState(run.id, 2).has_value());
+  const auto refused = [&](std::int64_t id, std::int64_t step, const std::string& state, const std::string& words) {
+    try {
+      kb->recordWorldState(id, step, state);
+      ADD_FAILURE() << "accepted step " << step << " of run " << id;
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  refused(run.id + 7, 0, "{}", "run");
+  refused(run.id, -1, "{}", "step is -1");
+  refused(run.id, 2, "", "state is empty");
+  refused(run.id, 2, "{not json", "not JSON");
+  refused(run.id, 2, std::string(KnowledgeBase::kMaxWorldStateBytes + 1, ' '), "at most");
+  EXPECT_FALSE(kb->worldState(run.id, 2).has_value()) << "a refused state writes nothing";
+}
+
 TEST(KnowledgeBase, ASchemaTwoDatabaseIsMigratedToThreeAndKeepsItsExperiments) {
   TempDir dir;
   const std::string path = dir.file("kb.sqlite");
@@ -604,7 +630,8 @@ TEST(KnowledgeBase, ASchemaTwoDatabaseIsMigratedToThreeAndKeepsItsExperiments) {
   }
   execRaw(path, std::string(kDropSchemaThree) + "PRAGMA user_version=2;");  // as schema 2 wrote it
   auto kb = KnowledgeBase::open(path);
-  EXPECT_EQ(countRows(path, "PRAGMA user_version"), 3);
+  EXPECT_EQ(countRows(path, "PRAGMA user_version"), KnowledgeBase::kSchemaVersion);
+  EXPECT_FALSE(kb->worldState(1, 0).has_value());
   const auto all = kb->experiments(1);
   ASSERT_EQ(all.size(), 1u);
   expectIsExperimentNumber(all[0], 1);

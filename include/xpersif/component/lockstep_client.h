@@ -44,6 +44,7 @@ class LockstepClient {
     std::vector<std::string> fresh;  ///< ACT: sensors that published output stamped `stamp`
     bool idle = false;               ///< the physics did not advance in this tick
     double physics_time = 0;         ///< seconds the physics has run (excludes idle ticks)
+    std::uint64_t epoch = 0;         ///< counts restores of the world's state: frame schedules start again
   };
   using Command = core::LockstepCommand;
 

@@ -77,6 +77,9 @@ class Supervisor : public Component {
   const std::vector<SupervisedComponent>& supervised() const { return components_; }
   /// Last state heard from @p name (UNCONFIGURED if never heard).
   LifecycleState lastKnownState(const std::string& name) const;
+  /// The supervised components that are lost now (silent, not yet back or restarted).
+  std::vector<std::string> lostComponents() const;
+  double heartbeatTimeout() const { return heartbeat_timeout_; }
 
   /// Call a supervised component's lifecycle service; throws std::runtime_error with the reason on failure.
   void requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const;

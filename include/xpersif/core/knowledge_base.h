@@ -131,14 +131,15 @@ struct Fact {
 
 class KnowledgeBase {
  public:
-  /// 2: experiments keep their design; 3: calls, their effects and the facts they imply (1 and 2 are migrated
-  /// on open).
-  static constexpr int kSchemaVersion = 3;
+  /// 2: experiments keep their design; 3: calls, their effects and the facts they imply; 4: world states (1 to 3
+  /// are migrated on open).
+  static constexpr int kSchemaVersion = 4;
   static constexpr std::size_t kMaxCallsPerQuery = 1000;
   static constexpr std::size_t kMaxEffectsPerCall = 64;
   static constexpr std::int32_t kApplicationId = 0x58505346;  ///< "XPSF"
   static constexpr std::size_t kMaxTextLength = 4096;           ///< reasons, event texts, notion texts
   static constexpr std::size_t kMaxBlobBytes = 64u << 20;       ///< one model
+  static constexpr std::size_t kMaxWorldStateBytes = 4u << 20;  ///< one world state (a few kB per body)
 
   /// Open (and create if missing) the database at @p path; ":memory:" gives a private in-memory one.
   /// Throws KnowledgeBaseError when the file is not a database, belongs to another program, or has a newer
@@ -182,6 +183,15 @@ class KnowledgeBase {
   /// Replace all notions of the run by @p notions, in one transaction (all or nothing).
   void replaceNotions(std::int64_t run_id, const std::vector<Notion>& notions);
   std::vector<Notion> notions(std::int64_t run_id);
+
+  // ---- world states ----
+  /// Store the simulator's state at the start of step @p step of a run (experiments are steps 0, 1, ...; goal g
+  /// of a run of E experiments is step E + g), replacing one stored before for that step. Bad input (an unknown
+  /// run, a negative step, text that is not JSON or is larger than kMaxWorldStateBytes) throws ValidationError
+  /// and writes nothing.
+  void recordWorldState(std::int64_t run_id, std::int64_t step, const std::string& state);
+  /// The state stored for a run's step, if any.
+  std::optional<std::string> worldState(std::int64_t run_id, std::int64_t step);
 
   // ---- goals ----
   GoalRecord recordGoal(const GoalRecord& goal);

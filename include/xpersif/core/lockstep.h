@@ -85,6 +85,8 @@ class LockstepCoordinator {
     if (requested_ > 0) --requested_;
   }
   std::uint64_t requestedTicks() const { return requested_; }
+  /// The world's state was restored: every sensor owes a frame at the next tick, as a sensor that just joined.
+  void restartSchedules() { next_due_.clear(); }
   /// The robot's command from the current tick's ACT reports (the last driving actor's), if any drives.
   const Command& command() const { return command_; }
   double timeout() const { return timeout_; }

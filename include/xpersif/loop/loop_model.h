@@ -14,7 +14,11 @@
  *                   set_next_experiment.
  *
  * Everything that happens is in the knowledge base, so a run that was interrupted (a component died, the
- * whole system was stopped) resumes where it stopped (goal.resume). The arena is tidied between
+ * whole system was stopped) resumes where it stopped (goal.resume). At the start of every step (an experiment,
+ * a goal) it takes XPERSim's world state (`~checkpoint`) and stores it in the knowledge base; a resumed run puts
+ * the world back in the state of the step it resumes at, and an experiment during which a component was lost
+ * is not stored but done again from its step's state. With the lockstep clock, a run interrupted in any of these
+ * ways ends with the same experiments as an uninterrupted one (test/determinism.sh). The arena is tidied between
  * experiments as an experimenter would: a cube pushed against a wall, against another cube or out of sight
  * is put back at a free spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
  * `~progress` (RunLoopFeedback).
@@ -83,6 +87,15 @@ class LoopModel : public Supervisor {
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why);
   void waitForLearning(std::uint32_t samples, Run::Context& context);
+  /// XPERSim's world state at the start of step @p step of run @p run_id, stored in the knowledge base; the world
+  /// goes on from it exactly as a world restored from it. Returns it, or "" (with a warning) when it could not be had.
+  std::string takeCheckpoint(std::uint64_t run_id, std::uint32_t step);
+  /// Put the world back in @p state, or in the state stored for @p step of @p run_id when @p state is empty;
+  /// "" or why not.
+  std::string restoreCheckpoint(std::uint64_t run_id, std::uint32_t step, const std::string& state = "");
+  /// After a step during which a component was lost: wait (up to @p seconds) until none is lost; "" or why not.
+  std::string waitForComponents(Run::Context& context, double seconds);
+  void onComponentLost(const SupervisedComponent& component, const std::string& reason) override;
 
   std::mutex mutex_;
   EmbodimentSetup setup_;
@@ -102,6 +115,8 @@ class LoopModel : public Supervisor {
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
+  std::atomic<std::uint64_t> losses_{0};
+  double latest_clock_ = 0;  // the latest simulated time the run's thread saw (a restored world's clock goes on after it)  // components lost so far (a step that saw one is done again)
   std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
   RunLoopFeedback progress_;
   std::uint32_t model_samples_ = 0;

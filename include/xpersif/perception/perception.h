@@ -98,6 +98,7 @@ class Perception : public AggregateComponent {
   ros::Timer timer_;
   std::unique_ptr<LockstepClient> lockstep_;
   double next_due_ = 0;  // lockstep: physics time at which the next frame is due
+  std::uint64_t epoch_ = 0;  // lockstep: the world state's epoch the schedule belongs to
 };
 
 }  // namespace xpersif

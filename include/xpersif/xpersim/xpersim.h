@@ -14,7 +14,8 @@
  * Publishes: /clock, /tf (dynamic nodes, one TFMessage per frame), /tf_static (latched), `~scene`
  * (latched), `~markers` (latched, frame-locked, arena and objects), `~ground_truth`, and the robot's
  * driver topics `odom`, `ir`, `joint_states`; sets `robot_description`. Subscribes `cmd_vel` and
- * `wheel_speeds`. Operations: `~pause`, `~resume`, `~step`, `~reset`, `~set_pose`, `~get_scene`.
+ * `wheel_speeds`. Operations: `~pause`, `~resume`, `~step`, `~reset`, `~set_pose`, `~get_scene`,
+ * `~checkpoint`, `~restore`.
  *
  * Lockstep mode (README "Lockstep"): simulated time advances one control tick (`~tick_period`, s of simulated
  * time, default 0.02) at a time, and only when every participant (joined through `~lockstep`) has reported the
@@ -79,6 +80,8 @@ class XPerSim : public Component {
   /// stepped tick, at full precision, so two takes of a campaign can be diffed to their first difference.
   void traceLocked(const std::string& event);
   void onLockstepDone(const LockstepDone::ConstPtr& done);
+  /// After a checkpoint or restore: a new epoch (sensors start their schedules again), the world unhalted and shown.
+  void restoredLocked(const std::string& what);
 
   // World and its settings; guarded by world_mutex_.
   std::mutex world_mutex_;
@@ -101,9 +104,11 @@ class XPerSim : public Component {
   double tick_period_ = 0.02;
   int steps_per_tick_ = 10;
   std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
+  std::uint64_t epoch_ = 0;  // checkpoints and restores so far (LockstepTick.epoch)
   double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
   double idle_period_ = 0.05;     // wall s without demand before an idle tick
   double last_tick_wall_ = 0;
+  double last_announce_wall_ = 0;  // wall time the clock last announced itself to nobody (a restarted simulator)
   bool last_tick_idle_ = false;
   std::condition_variable lockstep_wake_;
 
