@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Compare two knowledge bases field by field: every stored field of every experiment, the goals and the
-notions, except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
+"""Compare two knowledge bases field by field: every stored field of every experiment, the goals, the
+notions and XPERSim's world states at the start of every step, except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
 which include the idle time of a lockstep clock). Exit 0 when equal, 1 with the differences listed.
 
 usage: compare_kb.py A.db B.db [--keep-times]"""
@@ -13,7 +13,8 @@ TIME_COLUMNS = {"created", "started", "finished", "stamp", "updated", "time", "w
 
 def rows(path, table, keep_times):
     db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
-    cur = db.execute(f"SELECT * FROM {table} ORDER BY id")
+    order = "run_id, step" if table == "world_states" else "id"  # a step taken again replaces its state
+    cur = db.execute(f"SELECT * FROM {table} ORDER BY {order}")
     names = [d[0] for d in cur.description]
     out = []
     for row in cur:
@@ -44,7 +45,7 @@ def main():
     a, b = args
     differences = 0
     compared = 0
-    for table in sorted(tables(a) & tables(b) & {"experiments", "goals", "notions"}):
+    for table in sorted(tables(a) & tables(b) & {"experiments", "goals", "notions", "world_states"}):
         ra, rb = rows(a, table, keep_times), rows(b, table, keep_times)
         if len(ra) != len(rb):
             print(f"{table}: {len(ra)} rows in {a}, {len(rb)} in {b}")

@@ -56,10 +56,10 @@ take() {  # take NAME [resume|kill]
       # Every process that talks to this take's master, and the master and roslaunch themselves.
       local pids="$launch" pid
       for pid in $(pgrep -f "ros|nodelet|xpersif" || true); do
-        [ "$pid" = "$$" ] || [ "$pid" = "$runner" ] && continue
+        [ "$pid" = "$$" ] && continue
         tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && pids="$pids $pid"
       done
-      kill -KILL $pids 2>/dev/null || true
+      kill -KILL $pids "$runner" 2>/dev/null || true  # the client too: it would wait for a master that is gone
       wait "$launch" 2>/dev/null || true
       wait "$runner" 2>/dev/null || true
       echo "determinism: $name: killed the whole system ($(echo $pids | wc -w) processes) after $(stored "$work/$name.db") experiments"
