@@ -210,6 +210,7 @@ void XPerSim::declareOperations() {
       checkpoint_contract,
       [](const WorldState::Request& request) {
         if (!request.state.empty()) throw core::ValidationError("state must be empty: ~checkpoint takes a state, ~restore gives one");
+        core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);  // not used here, but never anything
       },
       [this, requireStandingWorld](const WorldState::Request&, WorldState::Response& response) {
         std::lock_guard<std::mutex> lock(world_mutex_);
