@@ -9,6 +9,9 @@
 #               that manager SIGKILLed once STOP_AFTER experiments are stored (mid-experiment, as a rule): roslaunch
 #               respawns it, LOOPMODEL restarts its components, puts the world back in the state the interrupted
 #               experiment began from (XPERSim's checkpoint in the knowledge base) and does that experiment again;
+#   goal_sim_manager
+#               the simulator's manager SIGKILLed in the goal phase, once the goal's first push is stored: the push
+#               under way is done again from its own world state;
 #   system      every process of the system SIGKILLed at that moment (the master, roslaunch, every manager), the
 #               system started again on the same knowledge base, and the run resumed from the stored world state.
 # Usage: determinism.sh [WORLD [DESIGN]]   (default: worlds/default.yaml, curiosity); ONLY="system sim_manager"
@@ -31,8 +34,8 @@ stored() {  # experiments stored in the knowledge base $1 so far
   /usr/bin/python3 -c 'import sqlite3,sys; print(sqlite3.connect(f"file:{sys.argv[1]}?mode=ro", uri=True).execute("SELECT count(*) FROM experiments").fetchone()[0])' "$1" 2>/dev/null || echo 0
 }
 
-take() {  # take NAME [resume|kill]
-  local name=$1 interrupt=${2:-}
+take() {  # take NAME [resume|kill:MANAGER|system [STOP_AFTER]]
+  local name=$1 interrupt=${2:-} stop_after=${3:-$stop_after}
   XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
   set -u
   roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch world:="$world" database:="$work/$name.db" \
@@ -56,12 +59,21 @@ take() {  # take NAME [resume|kill]
       # Every process that talks to this take's master, and the master and roslaunch themselves.
       local pids="$launch" pid
       for pid in $(pgrep -f "ros|nodelet|xpersif" || true); do
-        [ "$pid" = "$$" ] && continue
+        [ "$pid" = "$$" ] || [ "$pid" = "$runner" ] && continue  # the client must notice by itself
         tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && pids="$pids $pid"
       done
-      kill -KILL $pids "$runner" 2>/dev/null || true  # the client too: it would wait for a master that is gone
+      kill -KILL $pids 2>/dev/null || true
       wait "$launch" 2>/dev/null || true
-      wait "$runner" 2>/dev/null || true
+      # The client is not killed: it must notice that its master is gone, and say so (exit 1), within 10 s.
+      local waited=0
+      while kill -0 "$runner" 2>/dev/null && [ "$waited" -lt 60 ]; do sleep 1; waited=$((waited + 1)); done
+      if kill -0 "$runner" 2>/dev/null; then
+        kill -KILL "$runner"
+        echo "determinism: $name: xpersif run still waits $waited s after its master died"
+        exit 1
+      fi
+      wait "$runner" && { echo "determinism: $name: xpersif run ended successfully although its master died"; exit 1; }
+      echo "determinism: $name: the client said: $(grep 'has been gone' "$work/$name.run1.log" || tail -1 "$work/$name.run1.log")"
       echo "determinism: $name: killed the whole system ($(echo $pids | wc -w) processes) after $(stored "$work/$name.db") experiments"
       sleep 1
       roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch world:="$world" database:="$work/$name.db" \
@@ -90,13 +102,14 @@ take() {  # take NAME [resume|kill]
   launch=0
 }
 
-takes="second resumed kb_manager sim_manager embodiment_manager system"
+takes="second resumed kb_manager sim_manager embodiment_manager goal_sim_manager system"
 take first
 for name in ${ONLY:-$takes}; do
   case $name in
     second) take second ;;
     resumed) take resumed resume ;;
     system) take system system ;;
+    goal_sim_manager) take goal_sim_manager kill:sim_manager 7 ;;  # mid-goal: its first push is stored
     *) take "$name" "kill:$name" ;;
   esac
 done

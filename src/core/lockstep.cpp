@@ -13,6 +13,10 @@ LockstepCoordinator::LockstepCoordinator(double timeout) : timeout_(timeout) {
 void LockstepCoordinator::join(const std::string& name, Role role) {
   if (name.empty()) throw ValidationError("a lockstep participant needs a name");
   roles_[name] = role;
+  // A join owes nothing in the current phase, also when the name owed a report: a component that was restarted
+  // (its manager died) joins under its old name, and must not be dropped for what the dead one owed.
+  owed_.erase(name);
+  next_due_.erase(name);
   // An actor's first report is for the ACT phase of the next tick to start (or of this one, joining in SENSE),
   // so its first command always follows a SENSE phase that saw the world as it is now. Had it acted on the
   // current ACT phase, it would have seen whatever the sensors last published: a frame of the standing world

@@ -266,7 +266,14 @@ std::string Execution::runAction(ExecutePlan::Context& context, const std::strin
   }
   c.sendGoal(goal);
   const ros::Time deadline = ros::Time::now() + ros::Duration(step_timeout);
+  ros::WallTime last_connected = ros::WallTime::now();
   while (!c.waitForResult(ros::Duration(0.02))) {
+    // A server that died (its manager killed) sends no result, and simulated time may stand still: give up
+    // on it after 2 s of wall time without a connection.
+    if (c.isServerConnected()) last_connected = ros::WallTime::now();
+    if ((ros::WallTime::now() - last_connected).toSec() > 2.0) {
+      return "the action server " + nodeHandle().resolveName(action) + " went away during the step";
+    }
     if (context.stopRequested()) {
       c.cancelGoal();
       c.waitForResult(ros::Duration(10.0));

@@ -427,15 +427,22 @@ void LoopModel::onComponentLost(const SupervisedComponent& component, const std:
   ++losses_;
 }
 
-std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) {
+std::string LoopModel::checkpointWorld(std::string* why) {
   Spending spending(wall_spent_, "checkpoint");
   WorldState checkpoint;
-  std::string why = callPatiently(nodeHandle(), "xpersim/checkpoint", checkpoint);
+  *why = callPatiently(nodeHandle(), "xpersim/checkpoint", checkpoint);
+  return checkpoint.response.state;
+}
+
+std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) {
+  std::string why;
+  const std::string state = checkpointWorld(&why);
   if (why.empty()) {
+    Spending spending(wall_spent_, "checkpoint");
     RecordWorldState record;
     record.request.run_id = run_id;
     record.request.step = step;
-    record.request.state = checkpoint.response.state;
+    record.request.state = state;
     why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", record);
     // Kept in memory all the same: a step that is done again (a component lost) restores it from here.
     if (!why.empty()) why = "the knowledge base did not store it: " + why;
@@ -444,7 +451,7 @@ std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) 
     ROS_WARN("%s: no world state at step %u (a resume from there will start from the world as it is then): %s",
              name().c_str(), step, why.c_str());
   }
-  return checkpoint.response.state;
+  return state;
 }
 
 std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t step, const std::string& state) {
@@ -831,11 +838,22 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     record_goal.request.target_x = design.response.target_x;
     record_goal.request.target_y = design.response.target_y;
     double error = INFINITY;
+    bool push_restored = false;  // a push done again starts from its own world state, not a new checkpoint
+    std::string redo_state;
     for (int push = 0; push <= max_goal_pushes_; ++push) {
       const ObjectFeatures* object = findObject(scene, design.response.object);
       if (!object) break;
       error = std::hypot(object->position.x - design.response.target_x, object->position.y - design.response.target_y);
       if (error < goal_tolerance_ || push == max_goal_pushes_) break;
+      // Each push starts from a checkpoint kept in memory: a push during which a component was lost is done again.
+      std::string push_state;
+      if (!push_restored) {
+        std::string ignored;
+        push_state = checkpointWorld(&ignored);
+      } else {
+        push_state = redo_state;
+      }
+      push_restored = false;
       ChoosePush choose;
       choose.request.samples = modelSamples();
       choose.request.scene = scene;
@@ -855,7 +873,20 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         break;
       }
       ExperimentRecord record;
+      const std::uint64_t losses_before = losses_;
       runExperiment(choose.response.experiment, "goal", context, record);
+      if (record.status != "done" && losses_ == losses_before) ros::WallDuration(heartbeatTimeout() + 0.5).sleep();
+      if (losses_ != losses_before && !push_state.empty() && !context.stopRequested()) {
+        ROS_WARN("%s: a component was lost during push %d of goal %u; doing it again from the world as it was",
+                 name().c_str(), push + 1, g + 1);
+        why = waitForComponents(context, 180.0);
+        if (why.empty()) why = restoreCheckpoint(result.run_id, 0, push_state);
+        if (!why.empty()) return ended("cannot do push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1) + " again: " + why);
+        redo_state = push_state;
+        push_restored = true;
+        --push;
+        continue;
+      }
       ++record_goal.request.pushes;
       // Every goal push is stored, a failed one with its reason, as the designed experiments are.
       RecordExperiment store;

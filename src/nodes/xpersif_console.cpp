@@ -351,11 +351,24 @@ int runLoop(xpersif::RunLoopGoal goal) {
   std::signal(SIGINT, [](int) { interrupted = 1; });
   client.sendGoal(goal, {}, {}, [](const xpersif::RunLoopFeedbackConstPtr& p) { printProgress(*p); });
   bool cancelled = false;
+  // A run whose master or LOOPMODEL died never reports a result: say so instead of waiting for ever.
+  ros::WallTime last_heard = ros::WallTime::now(), next_master_check = ros::WallTime::now();
   while (!client.getState().isDone()) {
     if (interrupted && !cancelled) {
       std::cout << "xpersif: cancelling the run (it can be resumed with --resume)" << std::endl;
       client.cancelGoal();
       cancelled = true;
+    }
+    const ros::WallTime now = ros::WallTime::now();
+    if (now >= next_master_check) {
+      next_master_check = now + ros::WallDuration(1.0);
+      if (ros::master::check() && client.isServerConnected()) last_heard = now;
+    }
+    if ((now - last_heard).toSec() > 10.0) {
+      std::cerr << "xpersif: " << (ros::master::check() ? loop_name + "/run" : "the ROS master " + ros::master::getURI())
+                << " has been gone for 10 s, so the run's result will not come; what it did is in the knowledge base: "
+                   "start the system again if it died, and go on with the same command and --resume\n";
+      return 1;
     }
     ros::WallDuration(0.05).sleep();
   }

@@ -192,22 +192,27 @@ void XPerSim::declareOperations() {
   // A run that may be resumed takes a checkpoint at every experiment boundary; a resumed run restores one. Both
   // change the world's state (a checkpoint restores its own), so both wait for a world that stands: no
   // command may be moving it.
-  auto requireStandingWorld = [this]() {
-    if (lockstep_ && lockstep_->wantsTime()) {
-      throw core::UnavailableError("a command is moving the world (a lockstep participant wants time): take or "
-                                    "restore a world state between commands");
-    }
+  // "" or why not (world_mutex_ held).
+  auto movingWorld = [this]() -> std::string {
+    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world (a lockstep participant wants time)" : "";
   };
-  core::Contract checkpoint = operation("checkpoint", "xpersif/WorldState",
-                                        "the world's whole state, from which it goes on exactly as a restored world would");
-  checkpoint.preconditions = {{"standing(sim)", "no command is moving the world"}};
-  ContractChecker<WorldState::Request> checkpoint_contract(checkpoint);
-  checkpoint_contract.check("standing(sim)", [this](const WorldState::Request&) -> std::string {
-    std::lock_guard<std::mutex> lock(world_mutex_);
-    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world" : "";
-  });
+  auto requireStandingWorld = [movingWorld]() {
+    const std::string why = movingWorld();
+    if (!why.empty()) throw core::UnavailableError(why + ": take or restore a world state between commands");
+  };
+  // The contract of both: checked when the call arrives, and again under the world's lock when it is carried out.
+  auto standingContract = [this, movingWorld](core::Contract contract) {
+    contract.preconditions = {{"standing(sim)", "no command is moving the world"}};
+    ContractChecker<WorldState::Request> checker(contract);
+    checker.check("standing(sim)", [this, movingWorld](const WorldState::Request&) {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      return movingWorld();
+    });
+    return checker;
+  };
   addOperation<WorldState>(
-      checkpoint_contract,
+      standingContract(operation("checkpoint", "xpersif/WorldState",
+                                 "the world's whole state, from which it goes on exactly as a restored world would")),
       [](const WorldState::Request& request) {
         if (!request.state.empty()) throw core::ValidationError("state must be empty: ~checkpoint takes a state, ~restore gives one");
         core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);  // not used here, but never anything
@@ -221,15 +226,8 @@ void XPerSim::declareOperations() {
         response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
       });
 
-  core::Contract restore = operation("restore", "xpersif/WorldState", "put the world back in a state ~checkpoint gave");
-  restore.preconditions = {{"standing(sim)", "no command is moving the world"}};
-  ContractChecker<WorldState::Request> restore_contract(restore);
-  restore_contract.check("standing(sim)", [this](const WorldState::Request&) -> std::string {
-    std::lock_guard<std::mutex> lock(world_mutex_);
-    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world" : "";
-  });
   addOperation<WorldState>(
-      restore_contract,
+      standingContract(operation("restore", "xpersif/WorldState", "put the world back in a state ~checkpoint gave")),
       [](const WorldState::Request& request) {
         if (request.state.empty()) throw core::ValidationError("state is empty: give a state that ~checkpoint gave");
         core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);

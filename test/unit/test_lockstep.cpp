@@ -143,3 +143,20 @@ TEST(Lockstep, EachOwedReportHasItsOwnDeadline) {
   EXPECT_EQ(c.dropLate(13.5), std::vector<std::string>{"late"});
   EXPECT_TRUE(c.phaseComplete());
 }
+
+// A component restarted after its manager died joins again under its old name while the dead one still owes a
+// report: the new one owes nothing for the current phase, so the phase completes and nobody is dropped.
+TEST(Lockstep, AParticipantThatJoinsAgainUnderItsNameOwesNothingForThePhase) {
+  LockstepCoordinator c(5.0);
+  c.join("camera", Role::Sensor);
+  c.join("other_camera", Role::Sensor);
+  c.startTick(1, 0.0, 0.02, false);
+  EXPECT_EQ(c.report("other_camera", 1, Phase::Sense, false, true), "");
+  EXPECT_FALSE(c.phaseComplete()) << "the camera owes its report";
+  c.join("camera", Role::Sensor);  // the restarted camera
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.dropLate(100.0).empty()) << "nobody is dropped for what the dead one owed";
+  c.startAct(0.0);
+  c.startTick(2, 0.0, 0.04, false);
+  EXPECT_EQ(c.owed(), (std::vector<std::string>{"camera", "other_camera"})) << "from the next tick it takes part again";
+}
