@@ -472,20 +472,26 @@ std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t ste
   return callPatiently(nodeHandle(), "xpersim/restore", restore);
 }
 
-std::string LoopModel::waitForComponents(Run::Context& context, double seconds) {
-  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(seconds);
+bool LoopModel::lostDuring(std::uint64_t losses_before, const ExperimentRecord& record) {
+  // A failure may be the first sign of a lost component: give the supervisor its heartbeat timeout to tell.
+  if (record.status != "done" && losses_ == losses_before) ros::WallDuration(heartbeatTimeout() + 0.5).sleep();
+  return losses_ != losses_before;
+}
+
+std::string LoopModel::returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state) {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(180.0);
   std::vector<std::string> lost = lostComponents();
   while (!lost.empty()) {
     if (context.stopRequested()) return "stopped while components were lost";
     if (ros::WallTime::now() > until) {
       std::string names;
       for (const auto& n : lost) names += (names.empty() ? "" : ", ") + n;
-      return names + " did not come back within " + core::describeNumber(seconds) + " s";
+      return names + " did not come back within 180 s";
     }
     ros::WallDuration(0.1).sleep();
     lost = lostComponents();
   }
-  return "";
+  return restoreCheckpoint(run_id, 0, state);
 }
 
 std::string LoopModel::gate(Run::Context& context, bool confirm_each) {
@@ -754,18 +760,13 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     ExperimentRecord record;
     runExperiment(experiment, design, context, record);
     if (context.stopRequested() && record.status != "done") return ended("stopped during an experiment");
-    // A failure may be the first sign of a lost component: give the supervisor its heartbeat timeout to tell.
-    if (record.status != "done" && losses_ == losses_before) {
-      ros::WallDuration(heartbeatTimeout() + 0.5).sleep();
-    }
-    if (losses_ != losses_before && !step_state.empty()) {
+    if (lostDuring(losses_before, record) && !step_state.empty()) {
       // A component was lost during the experiment: what it did is not what an uninterrupted run would have
       // done. It is not stored; once every component is back, the world goes back to the step's state and the
       // same experiment (the same design stream) is done again.
       ROS_WARN("%s: a component was lost during experiment %u (%s); doing it again from the world as it was",
                name().c_str(), done + 1, record.status == "done" ? "it finished" : record.reason.c_str());
-      why = waitForComponents(context, 180.0);
-      if (why.empty()) why = restoreCheckpoint(result.run_id, done, step_state);
+      why = returnTo(context, result.run_id, step_state);
       if (!why.empty()) return ended("cannot do experiment " + std::to_string(done + 1) + " again: " + why);
       if (chosen) {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -875,12 +876,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       ExperimentRecord record;
       const std::uint64_t losses_before = losses_;
       runExperiment(choose.response.experiment, "goal", context, record);
-      if (record.status != "done" && losses_ == losses_before) ros::WallDuration(heartbeatTimeout() + 0.5).sleep();
-      if (losses_ != losses_before && !push_state.empty() && !context.stopRequested()) {
+      if (lostDuring(losses_before, record) && !push_state.empty() && !context.stopRequested()) {
         ROS_WARN("%s: a component was lost during push %d of goal %u; doing it again from the world as it was",
                  name().c_str(), push + 1, g + 1);
-        why = waitForComponents(context, 180.0);
-        if (why.empty()) why = restoreCheckpoint(result.run_id, 0, push_state);
+        why = returnTo(context, result.run_id, push_state);
         if (!why.empty()) return ended("cannot do push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1) + " again: " + why);
         redo_state = push_state;
         push_restored = true;

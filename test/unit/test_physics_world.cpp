@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shipped_worlds.h"
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/validation.h"
 
@@ -296,11 +297,7 @@ TEST(PhysicsWorld, BadInputIsRefusedAndChangesNothing) {
 // Every file in worlds/ loads, builds, and rests: after a second of simulated time every object is finite,
 // inside the arena and on the floor (balls included: their spin is damped), and the scene lists it.
 TEST(PhysicsWorld, EveryShippedWorldLoadsBuildsAndSettles) {
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
-    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
-  }
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files = shippedWorldFiles();
   EXPECT_GE(files.size(), 3u) << "default, mixed and large";
   for (const auto& file : files) {
     SCOPED_TRACE(file);
@@ -530,15 +527,6 @@ TEST(PhysicsWorld, FrictionIsRedrawnPerContactEpisodeFromTheSeed) {
 
 namespace {
 
-std::vector<std::string> shippedWorlds() {
-  std::vector<std::string> paths;
-  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
-    if (entry.path().extension() == ".yaml") paths.push_back(entry.path().string());
-  }
-  std::sort(paths.begin(), paths.end());
-  return paths;
-}
-
 /// The robot 7.5 cm behind the world's first object, driving into it (contacts, moving bodies, maybe a redraw).
 void startPushingFirstObject(PhysicsWorld& world) {
   const Eigen::Vector3d at = world.bodyPose(world.spec().objects.at(0).name).translation();
@@ -563,7 +551,7 @@ void goOn(PhysicsWorld& world, int steps) {
 }  // namespace
 
 TEST(PhysicsWorld, ACheckpointRestoredIntoAnotherWorldContinuesBitForBit) {
-  for (const std::string& path : shippedWorlds()) {
+  for (const std::string& path : shippedWorldFiles()) {
     SCOPED_TRACE(path);
     const WorldSpec spec = loadWorldFile(path);
     PhysicsWorld a(spec);
@@ -599,7 +587,7 @@ TEST(PhysicsWorld, ACheckpointRestoredIntoAnotherWorldContinuesBitForBit) {
 }
 
 TEST(PhysicsWorld, AWorldStateThatIsNotOneOfThisWorldIsRefusedAndChangesNothing) {
-  const WorldSpec spec = loadWorldFile(shippedWorlds().front());
+  const WorldSpec spec = loadWorldFile(shippedWorldFiles().front());
   PhysicsWorld world(spec);
   startPushingFirstObject(world);
   run(world, 0.3);

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "shipped_worlds.h"
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/core/validation.h"
@@ -14,21 +15,13 @@ using namespace xpersif::core;
 
 namespace {
 
-std::vector<std::string> worldFiles() {
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(std::string(XPERSIF_SOURCE_DIR) + "/worlds")) {
-    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
 
 SceneDescription sceneOf(const std::string& file) { return PhysicsWorld(loadWorldFile(file)).scene(); }
 
 }  // namespace
 
 TEST(SetupCatalogue, EveryShippedWorldGivesItsObjectsAndSaneLimits) {
-  const auto files = worldFiles();
+  const auto files = shippedWorldFiles();
   ASSERT_FALSE(files.empty());
   for (const auto& file : files) {
     SCOPED_TRACE(file);

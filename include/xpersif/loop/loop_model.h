@@ -95,8 +95,11 @@ class LoopModel : public Supervisor {
   /// Put the world back in @p state, or in the state stored for @p step of @p run_id when @p state is empty;
   /// "" or why not.
   std::string restoreCheckpoint(std::uint64_t run_id, std::uint32_t step, const std::string& state = "");
-  /// After a step during which a component was lost: wait (up to @p seconds) until none is lost; "" or why not.
-  std::string waitForComponents(Run::Context& context, double seconds);
+  /// Whether a component was lost during the experiment that gave @p record (a failed one first waits one
+  /// heartbeat timeout: its failure may be the first sign of the loss).
+  bool lostDuring(std::uint64_t losses_before, const ExperimentRecord& record);
+  /// Once no component is lost any more (up to 180 s), the world back in @p state; "" or why not.
+  std::string returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state);
   void onComponentLost(const SupervisedComponent& component, const std::string& reason) override;
 
   std::mutex mutex_;
