@@ -9,6 +9,8 @@
 #               that manager SIGKILLed once STOP_AFTER experiments are stored (mid-experiment, as a rule): roslaunch
 #               respawns it, LOOPMODEL restarts its components, puts the world back in the state the interrupted
 #               experiment began from (XPERSim's checkpoint in the knowledge base) and does that experiment again;
+#   sim_host    the simulator's and the embodiment's managers SIGKILLed together (a multi-host system's sim host
+#               dying): the experiment under way ends at once and is done again;
 #   goal_sim_manager
 #               the simulator's manager SIGKILLed in the goal phase, once the goal's first push is stored: the push
 #               under way is done again from its own world state;
@@ -82,14 +84,19 @@ take() {  # take NAME [resume|kill:MANAGER|system [STOP_AFTER]]
       xpersif wait --timeout 180 /xpersif/loop_model >/dev/null || { tail -20 "$work/$name.launch.log"; exit 1; }
       xpersif run "${campaign[@]}" --resume | tail -1
     else
-      local manager_name=${interrupt#kill:} manager=""
-      # This take's manager: the one talking to this take's master (other systems may run on the machine).
-      for pid in $(pgrep -f "__name:=$manager_name" || true); do
-        tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
+      # kill:M1+M2 kills several managers at once (the sim host of a multi-host system dying).
+      local manager_name managers="" pid manager
+      for manager_name in $(tr '+' ' ' <<<"${interrupt#kill:}"); do
+        manager=""
+        # This take's manager: the one talking to this take's master (other systems may run on the machine).
+        for pid in $(pgrep -f "__name:=$manager_name" || true); do
+          tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
+        done
+        [ -n "$manager" ] || { echo "determinism: no $manager_name process to kill"; exit 1; }
+        managers="$managers $manager"
       done
-      [ -n "$manager" ] || { echo "determinism: no $manager_name process to kill"; exit 1; }
-      kill -KILL "$manager"
-      echo "determinism: $name: killed $manager_name (pid $manager) after $(stored "$work/$name.db") experiments"
+      kill -KILL $managers
+      echo "determinism: $name: killed ${interrupt#kill:} (pids$managers) after $(stored "$work/$name.db") experiments"
       wait "$runner" || { cat "$work/$name.run1.log"; exit 1; }
       tail -1 "$work/$name.run1.log"
     fi
@@ -102,7 +109,7 @@ take() {  # take NAME [resume|kill:MANAGER|system [STOP_AFTER]]
   launch=0
 }
 
-takes="second resumed kb_manager sim_manager embodiment_manager goal_sim_manager system"
+takes="second resumed kb_manager sim_manager embodiment_manager sim_host goal_sim_manager system"
 take first
 for name in ${ONLY:-$takes}; do
   case $name in
@@ -110,6 +117,7 @@ for name in ${ONLY:-$takes}; do
     resumed) take resumed resume ;;
     system) take system system ;;
     goal_sim_manager) take goal_sim_manager kill:sim_manager 7 ;;  # mid-goal: its first push is stored
+    sim_host) take sim_host kill:sim_manager+embodiment_manager ;;  # both at once, as multi_host.sh does
     *) take "$name" "kill:$name" ;;
   esac
 done

@@ -53,6 +53,9 @@ LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock
   // The reports must reach the simulator: wait for the connection before the first one.
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(timeout);
   while (done_pub_.getNumSubscribers() == 0 && ros::WallTime::now() < until) ros::WallDuration(0.01).sleep();
+  // And the ticks must reach it: a tick published before its subscription is connected to the simulator (a
+  // restarted one) is lost, and the participant is dropped 10 s later for a tick it never heard.
+  while (tick_sub_.getNumPublishers() == 0 && ros::WallTime::now() < until) ros::WallDuration(0.01).sleep();
   Lockstep call;
   call.request.participant = name_;
   call.request.role = sensor_ ? Lockstep::Request::SENSOR : Lockstep::Request::ACTOR;

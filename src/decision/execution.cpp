@@ -9,6 +9,7 @@
 #include "xpersif/GetContracts.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/ResultCode.h"
+#include "xpersif/component/action_wait.h"
 #include "xpersif/decision/decision_common.h"
 #include "xpersif/decision/planner.h"
 
@@ -267,7 +268,7 @@ std::string Execution::runAction(ExecutePlan::Context& context, const std::strin
   c.sendGoal(goal);
   const ros::Time deadline = ros::Time::now() + ros::Duration(step_timeout);
   ros::WallTime last_connected = ros::WallTime::now();
-  while (!c.waitForResult(ros::Duration(0.02))) {
+  while (!waitForResultOnWallTime(c, ros::WallDuration(0.02))) {
     // A server that died (its manager killed) sends no result, and simulated time may stand still: give up
     // on it after 2 s of wall time without a connection.
     if (c.isServerConnected()) last_connected = ros::WallTime::now();
@@ -276,13 +277,13 @@ std::string Execution::runAction(ExecutePlan::Context& context, const std::strin
     }
     if (context.stopRequested()) {
       c.cancelGoal();
-      c.waitForResult(ros::Duration(10.0));
+      waitForResultOnWallTime(c, ros::WallDuration(10.0));
       cancelled = context.cancelRequested();
       return cancelled ? "cancelled" : "stopping";
     }
     if (ros::Time::now() > deadline) {
       c.cancelGoal();
-      c.waitForResult(ros::Duration(10.0));
+      waitForResultOnWallTime(c, ros::WallDuration(10.0));
       return "no result within ~step_timeout " + core::describeNumber(step_timeout) + " s";
     }
   }

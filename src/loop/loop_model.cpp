@@ -23,6 +23,7 @@
 #include "xpersif/SetPose.h"
 #include "xpersif/StartRun.h"
 #include "xpersif/WorldState.h"
+#include "xpersif/component/action_wait.h"
 #include "xpersif/core/motivation.h"
 #include "xpersif/ros/experiment_conversions.h"
 
@@ -565,13 +566,17 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   goal.pose_source = pose_source_;
   goal.retries = static_cast<std::uint32_t>(retries_);
   spending.emplace(wall_spent_, "execution");
+  const std::uint64_t losses_before = losses_;
   execution.sendGoal(goal);
   while (!execution.getState().isDone()) {
     latest_clock_ = std::max(latest_clock_, ros::Time::now().toSec());
-    if (context.stopRequested()) {
+    // A lost component ends the experiment at once: it will be done again from its world state, and what the
+    // plan does meanwhile (against a restarted simulator whose clock starts from zero) would only cost time.
+    const bool lost = losses_ != losses_before;
+    if (context.stopRequested() || lost) {
       execution.cancelGoal();
-      execution.waitForResult(ros::Duration(10.0));
-      return fail("stopped during execution");
+      waitForResultOnWallTime(execution, ros::WallDuration(10.0));
+      return fail(lost ? "a component was lost during execution" : "stopped during execution");
     }
     ros::WallDuration(0.01).sleep();
   }
