@@ -233,6 +233,21 @@ std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service&
   }
   return why;
 }
+/// Patient also with an unmet precondition, which a component just (re)started may not meet yet: the PLANNER
+/// still reading contracts, DESIGNOFEXPERIMENTS before its first feature vector. @p stop ends the wait.
+template <class Service>
+std::string callWhenReady(ros::NodeHandle& nh, const std::string& name, Service& service,
+                          const std::function<bool()>& stop, double patience = 60.0) {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
+  std::uint8_t code = ResultCode::OK;
+  std::string why = call(nh, name, service, &code);
+  while (!why.empty() && ros::ok() && ros::WallTime::now() < until && !stop() &&
+         (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE || code == ResultCode::PRECONDITION_FAILED)) {
+    ros::WallDuration(0.2).sleep();
+    why = call(nh, name, service, &code);
+  }
+  return why;
+}
 
 }  // namespace
 
@@ -435,7 +450,7 @@ std::string LoopModel::checkpointWorld(std::string* why) {
   return checkpoint.response.state;
 }
 
-std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) {
+std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step, std::string* refused) {
   std::string why;
   const std::string state = checkpointWorld(&why);
   if (why.empty()) {
@@ -445,8 +460,12 @@ std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step) 
     record.request.step = step;
     record.request.state = state;
     why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", record);
-    // Kept in memory all the same: a step that is done again (a component lost) restores it from here.
-    if (!why.empty()) why = "the knowledge base did not store it: " + why;
+    // A knowledge base that cannot store (its disk full or read-only) will not store the step's results either:
+    // the caller ends the run before the step, so that it can be resumed from here once the disk is fixed.
+    if (!why.empty()) {
+      *refused = why;
+      return state;
+    }
   }
   if (!why.empty()) {
     ROS_WARN("%s: no world state at step %u (a resume from there will start from the world as it is then): %s",
@@ -541,17 +560,8 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
                            ", " + literalNumber(experiment.distance) + ")",
                        "observed(scene)"};
   std::optional<Spending> spending(std::in_place, wall_spent_, "plan");
-  std::uint8_t code = ResultCode::OK;
-  std::string why = call(nodeHandle(), "planner/make_plan", plan, &code);
-  // Right after start-up the PLANNER may still be reading the components' contracts (its precondition
-  // contracts_loaded): give it time.
-  const ros::WallTime patience = ros::WallTime::now() + ros::WallDuration(60.0);
-  while (!why.empty() && (code == ResultCode::PRECONDITION_FAILED || code == ResultCode::UNAVAILABLE ||
-                          code == ResultCode::NOT_ACTIVE) &&
-         ros::WallTime::now() < patience && !context.stopRequested()) {
-    ros::WallDuration(0.2).sleep();
-    why = call(nodeHandle(), "planner/make_plan", plan, &code);
-  }
+  // Right after start-up the PLANNER may still be reading the components' contracts (contracts_loaded).
+  std::string why = callWhenReady(nodeHandle(), "planner/make_plan", plan, [&] { return context.stopRequested(); });
   if (!why.empty()) return fail("no plan: " + why);
 
   if (!execution_) {
@@ -705,13 +715,12 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   };
 
   // The world as it was at the step the run resumes at (a restarted simulator starts from the world file).
-  // A world just restored is not checkpointed again: that would normalise its quaternions twice.
-  bool world_restored = false;
+  // The step's checkpoint is then the state restored (XPERSim's checkpoint of an unchanged world), so that
+  // the first step of a resumed run can be done again too.
   if (start.response.resumed) {
     const std::uint32_t step = done < goal.experiments ? done : goal.experiments + start.response.goals_done;
     why = restoreCheckpoint(result.run_id, step);
     if (why.empty()) {
-      world_restored = true;
       ROS_INFO("%s: resumed run %lu from the world state of step %u", name().c_str(),
                static_cast<unsigned long>(result.run_id), step);
     } else {
@@ -722,9 +731,15 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   std::string step_state;  // the world state at the start of the current step
 
   // ---- experimentation state ----
+  // The knowledge base could not store: nothing of the step is done, the world is as the knowledge base says.
+  auto unstored = [&](const std::string& what, const std::string& why) {
+    return ended("the knowledge base did not store " + what + " (" + why + "); the run stops before it, and " +
+                 "`--resume` goes on from there once the knowledge base can store again");
+  };
   while (done < goal.experiments) {
-    if (!world_restored) step_state = takeCheckpoint(result.run_id, done);
-    world_restored = false;
+    std::string refused;
+    step_state = takeCheckpoint(result.run_id, done, &refused);
+    if (!refused.empty()) return unstored("the world state of experiment " + std::to_string(done + 1), refused);
     const std::uint64_t losses_before = losses_;
     why = gate(context, goal.confirm_each);
     if (!why.empty()) return ended(why);
@@ -758,7 +773,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       request.request.experiment = done;
       request.request.run_id = result.run_id;
       Spending spending(wall_spent_, "design");
-      why = call(nodeHandle(), "design_of_experiments/design_experiment", request);
+      why = callWhenReady(nodeHandle(), "design_of_experiments/design_experiment", request,
+                          [&] { return context.stopRequested(); });
       if (!why.empty()) return ended("DESIGNOFEXPERIMENTS failed: " + why);
       experiment = request.response.experiment;
     }
@@ -777,7 +793,6 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         std::lock_guard<std::mutex> lock(mutex_);
         next_experiments_.push_front(experiment);
       }
-      world_restored = true;
       continue;
     }
     RecordExperiment store;
@@ -787,7 +802,11 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       Spending spending(wall_spent_, "record");
       why = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
     }
-    if (!why.empty()) return ended("the knowledge base refused the experiment: " + why);
+    if (!why.empty()) {
+      // The world goes back to where the knowledge base has it: before this experiment.
+      if (!step_state.empty()) restoreCheckpoint(result.run_id, done, step_state);
+      return unstored("experiment " + std::to_string(done + 1), why);
+    }
     ++done;
     if (record.status == "done") {
       ++result.experiments_done;
@@ -811,8 +830,9 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     publishProgress(&context);
   }
   for (std::uint32_t g = start.response.goals_done; g < goal.goals; ++g) {
-    if (!world_restored) takeCheckpoint(result.run_id, goal.experiments + g);
-    world_restored = false;
+    std::string refused;
+    takeCheckpoint(result.run_id, goal.experiments + g, &refused);
+    if (!refused.empty()) return unstored("the world state of goal " + std::to_string(g + 1), refused);
     why = gate(context, goal.confirm_each);  // sliding autonomy holds in both phases
     if (!why.empty()) return ended(why);
     FeatureVector scene;
@@ -896,9 +916,13 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       RecordExperiment store;
       store.request.record = record;
       store.request.record.run_id = result.run_id;
-      const bool stored = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store).empty();
+      why = callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
+      if (!why.empty()) {
+        if (!push_state.empty()) restoreCheckpoint(result.run_id, 0, push_state);
+        return unstored("push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1), why);
+      }
       if (record.status == "done") {
-        if (stored) waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
+        waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
         scene = record.after;
       } else {
         ROS_WARN("%s: goal %u (%s): a push failed: %s", name().c_str(), g + 1, design.response.object.c_str(),
@@ -909,7 +933,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
     record_goal.request.reached = error < goal_tolerance_;
     record_goal.request.final_error = std::isfinite(error) ? error : 999.0;  // never seen again
-    callPatiently(nodeHandle(), "knowledge_base/record_goal", record_goal);
+    why = callPatiently(nodeHandle(), "knowledge_base/record_goal", record_goal);
+    if (!why.empty()) return unstored("goal " + std::to_string(g + 1), why);
     if (record_goal.request.reached) ++result.goals_reached;
     {
       std::lock_guard<std::mutex> lock(mutex_);

@@ -30,6 +30,7 @@
 #include "xpersif/core/world_spec.h"
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/RunLoopAction.h"
+#include "xpersif/ros/run_driver.h"
 #include "xpersif/SetExperiment.h"
 #include "xpersif/GetContracts.h"
 #include "xpersif/Transition.h"
@@ -349,31 +350,26 @@ int runLoop(xpersif::RunLoopGoal goal) {
     return 1;
   }
   std::signal(SIGINT, [](int) { interrupted = 1; });
-  client.sendGoal(goal, {}, {}, [](const xpersif::RunLoopFeedbackConstPtr& p) { printProgress(*p); });
-  bool cancelled = false;
-  // A run whose master or LOOPMODEL died never reports a result: say so instead of waiting for ever.
-  ros::WallTime last_heard = ros::WallTime::now(), next_master_check = ros::WallTime::now();
-  while (!client.getState().isDone()) {
-    if (interrupted && !cancelled) {
-      std::cout << "xpersif: cancelling the run (it can be resumed with --resume)" << std::endl;
-      client.cancelGoal();
-      cancelled = true;
-    }
-    const ros::WallTime now = ros::WallTime::now();
-    if (now >= next_master_check) {
-      next_master_check = now + ros::WallDuration(1.0);
-      if (ros::master::check() && client.isServerConnected()) last_heard = now;
-    }
-    if ((now - last_heard).toSec() > 10.0) {
-      std::cerr << "xpersif: " << (ros::master::check() ? loop_name + "/run" : "the ROS master " + ros::master::getURI())
-                << " has been gone for 10 s, so the run's result will not come; what it did is in the knowledge base: "
-                   "start the system again if it died, and go on with the same command and --resume\n";
-      return 1;
-    }
-    ros::WallDuration(0.05).sleep();
+  // A run whose LOOPMODEL died and came back goes on (resumed); one whose master or LOOPMODEL stays gone ends
+  // with a sentence instead of waiting for ever.
+  bool said_cancel = false;
+  xpersif::RunDriver driver(client, loop_name + "/run", [](const std::string& s) { std::cout << "xpersif: " << s << std::endl; });
+  const xpersif::RunDriver::Outcome outcome = driver.run(
+      goal, [](const xpersif::RunLoopFeedbackConstPtr& p) { printProgress(*p); },
+      [&] {
+        if (interrupted && !said_cancel) {
+          std::cout << "xpersif: cancelling the run (it can be resumed with --resume)" << std::endl;
+          said_cancel = true;
+        }
+        return interrupted != 0;
+      },
+      {});
+  if (!outcome.ended) {
+    std::cerr << "xpersif: " << outcome.problem << "\n";
+    return 1;
   }
-  const auto state = client.getState();
-  const auto result = client.getResult();
+  const auto& state = outcome.state;
+  const auto& result = outcome.result;
   std::cout << "run " << (result ? result->run_id : 0) << ": " << state.toString() << ": " << state.getText() << "\n";
   return state == actionlib::SimpleClientGoalState::SUCCEEDED ? 0 : 1;
 }

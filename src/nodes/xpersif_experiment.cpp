@@ -47,6 +47,7 @@
 #include "xpersif/core/world_spec.h"
 #include "xpersif/ExperimentProgress.h"
 #include "xpersif/RunLoopAction.h"
+#include "xpersif/ros/run_driver.h"
 
 extern char** environ;
 
@@ -384,26 +385,28 @@ class Runner {
                         ",\"code_version\":" + xpersif::core::jsonString(code_version_) +
                         ",\"phase\":" + std::to_string(i + 1) + "}";
       const std::uint32_t units_before = units_done_;
-      client.sendGoal(goal, {}, {}, [&](const xpersif::RunLoopFeedbackConstPtr& p) {
-        if (p->experiment != progress_.experiments_done && p->experiment <= phase.experiments) {
-          progress_.experiments_done = p->experiment;
-          units_done_ = units_before + p->experiment;
-          say("running", phase.name + ": experiment " + std::to_string(p->experiment) + " of " +
-                             std::to_string(phase.experiments) + ": " + p->last);
-        } else if (p->state == "goal_directed" && p->last != last_goal_text_) {
-          last_goal_text_ = p->last;
-          say("running", phase.name + ": goals: " + p->last);
-        }
-      });
-      while (!client.getState().isDone()) {
-        if (!ros::ok()) {
-          client.cancelGoal();
-          return finish(1, "interrupted in phase " + phase.name + "; nothing after it ran");
-        }
-        ros::WallDuration(0.05).sleep();
+      // A phase whose LOOPMODEL died and came back goes on, resumed from the knowledge base (RunDriver).
+      xpersif::RunDriver driver(client, "/xpersif/loop_model/run", [&](const std::string& s) { say("running", s); });
+      const xpersif::RunDriver::Outcome outcome = driver.run(
+          goal,
+          [&](const xpersif::RunLoopFeedbackConstPtr& p) {
+            if (p->experiment != progress_.experiments_done && p->experiment <= phase.experiments) {
+              progress_.experiments_done = p->experiment;
+              units_done_ = units_before + p->experiment;
+              say("running", phase.name + ": experiment " + std::to_string(p->experiment) + " of " +
+                                 std::to_string(phase.experiments) + ": " + p->last);
+            } else if (p->state == "goal_directed" && p->last != last_goal_text_) {
+              last_goal_text_ = p->last;
+              say("running", phase.name + ": goals: " + p->last);
+            }
+          },
+          {}, [] { return !ros::ok(); });
+      if (!outcome.ended) {
+        if (!ros::ok()) return finish(1, "interrupted in phase " + phase.name + "; nothing after it ran");
+        return finish(1, "phase " + phase.name + ": " + outcome.problem);
       }
-      const auto state = client.getState();
-      const auto result = client.getResult();
+      const auto& state = outcome.state;
+      const auto& result = outcome.result;
       units_done_ = units_before + phase.experiments + phase.goals;
       if (state != actionlib::SimpleClientGoalState::SUCCEEDED) {
         return finish(1, "phase " + phase.name + " ended " + state.toString() + ": " + state.getText());

@@ -586,6 +586,34 @@ TEST(PhysicsWorld, ACheckpointRestoredIntoAnotherWorldContinuesBitForBit) {
   }
 }
 
+TEST(PhysicsWorld, ACheckpointOfAnUnchangedWorldIsTheStateItIsIn) {
+  // A run whose knowledge base refused a step's checkpoint is resumed from the world as it is, and checkpoints
+  // it again: that must be the same state, and must not touch the world, or the resumed run goes on from
+  // other numbers than the uninterrupted one.
+  for (const std::string& path : shippedWorldFiles()) {
+    SCOPED_TRACE(path);
+    const WorldSpec spec = loadWorldFile(path);
+    PhysicsWorld a(spec);
+    startPushingFirstObject(a);
+    run(a, 0.6);
+    const std::string first = a.checkpoint();
+    const std::string after_first = a.saveState();
+    EXPECT_EQ(a.checkpoint(), first) << "checkpointed again, unchanged";
+    EXPECT_EQ(a.saveState(), after_first) << "a second checkpoint does not touch the world";
+
+    PhysicsWorld b(spec);
+    b.restoreState(first);
+    EXPECT_EQ(b.checkpoint(), first) << "a restored world's checkpoint is the state it was restored from";
+
+    // Any change ends it: a step, a wheel command, a pose.
+    goOn(a, 1);
+    EXPECT_NE(a.checkpoint(), first) << "after a step";
+    const std::string stepped = a.checkpoint();
+    a.setVelocity(0.01, 0.0);
+    EXPECT_NE(a.checkpoint(), stepped) << "after a wheel command";
+  }
+}
+
 TEST(PhysicsWorld, AWorldStateThatIsNotOneOfThisWorldIsRefusedAndChangesNothing) {
   const WorldSpec spec = loadWorldFile(shippedWorldFiles().front());
   PhysicsWorld world(spec);

@@ -124,7 +124,8 @@ class PhysicsWorld {
   /// @throws ValidationError with one sentence, and nothing changed, when the text is not such a state
   void restoreState(const std::string& state);
   /// saveState(), then restoreState() of it: the world goes on exactly as a fresh world restored from the returned
-  /// text will. A run that may have to be resumed takes one at every experiment boundary.
+  /// text will. A run that may have to be resumed takes one at every experiment boundary. A world unchanged since
+  /// its last restore or checkpoint gives that state again, and is not touched.
   std::string checkpoint();
 
   /// "" when every body is finite and slower than max_speed, else what is wrong.
@@ -138,6 +139,7 @@ class PhysicsWorld {
 
   WorldSpec spec_;
   std::uint64_t redraw_seed_;
+  std::string known_state_;  ///< the state this world is exactly in, since restoreState(); cleared by any change
   SceneDescription scene_;
   std::unique_ptr<Impl> impl_;
 };

@@ -88,8 +88,9 @@ class LoopModel : public Supervisor {
   bool getScene(FeatureVector* scene, std::string* why);
   void waitForLearning(std::uint32_t samples, Run::Context& context);
   /// XPERSim's world state at the start of step @p step of run @p run_id, stored in the knowledge base; the world
-  /// goes on from it exactly as a world restored from it. Returns it, or "" (with a warning) when it could not be had.
-  std::string takeCheckpoint(std::uint64_t run_id, std::uint32_t step);
+  /// goes on from it exactly as a world restored from it. Returns it, or "" (with a warning) when XPERSim could not
+  /// give it; when the knowledge base did not store it, @p refused says why (the caller ends the run).
+  std::string takeCheckpoint(std::uint64_t run_id, std::uint32_t step, std::string* refused);
   /// XPERSim's checkpoint only (kept in memory by the caller); "" with @p why set when it could not be had.
   std::string checkpointWorld(std::string* why);
   /// Put the world back in @p state, or in the state stored for @p step of @p run_id when @p state is empty;
