@@ -132,7 +132,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
     else  # an I/O error as a failing disk gives one: ext4 turns read-only under the open database
       echo 1 >"/sys/fs/ext4/$(basename "$(findmnt -no SOURCE "$disk")")/trigger_fs_error"
     fi
-    echo "disk $interrupt" >>"$work/interruptions"
+    echo "$name $interrupt" >>"$work/interruptions"
     if wait "$runner"; then
       echo "determinism: $name: the run succeeded although its knowledge base could not store"
       exit 1

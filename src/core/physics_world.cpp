@@ -759,16 +759,17 @@ PhysicsWorld::StepResult PhysicsWorld::step() {
 }
 
 void PhysicsWorld::setWheelSpeeds(double left, double right) {
-  known_state_.clear();
   requireFinite("left wheel speed", left);
   requireFinite("right wheel speed", right);
   const double max = spec_.robot.max_wheel_speed;
-  impl_->left_command = std::clamp(left, -max, max);
-  impl_->right_command = std::clamp(right, -max, max);
+  const double l = std::clamp(left, -max, max), r = std::clamp(right, -max, max);
+  // The same command again changes nothing: a standing world stays the state it was checkpointed in.
+  if (l != impl_->left_command || r != impl_->right_command) known_state_.clear();
+  impl_->left_command = l;
+  impl_->right_command = r;
 }
 
 void PhysicsWorld::setVelocity(double linear, double angular) {
-  known_state_.clear();
   requireFinite("linear velocity", linear);
   requireFinite("angular velocity", angular);
   const double half = spec_.robot.wheel_separation / 2;

@@ -447,6 +447,7 @@ std::string LoopModel::checkpointWorld(std::string* why) {
   Spending spending(wall_spent_, "checkpoint");
   WorldState checkpoint;
   *why = callPatiently(nodeHandle(), "xpersim/checkpoint", checkpoint);
+  if (why->empty()) world_lineage_ = checkpoint.response.lineage;
   return checkpoint.response.state;
 }
 
@@ -489,7 +490,9 @@ std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t ste
     if (!stored.response.found) return "no world state is stored for step " + std::to_string(step);
     restore.request.state = stored.response.state;
   }
-  return callPatiently(nodeHandle(), "xpersim/restore", restore);
+  const std::string why = callPatiently(nodeHandle(), "xpersim/restore", restore);
+  if (why.empty()) world_lineage_ = restore.response.lineage;
+  return why;
 }
 
 bool LoopModel::lostDuring(std::uint64_t losses_before, const ExperimentRecord& record) {
@@ -729,6 +732,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
   }
   std::string step_state;  // the world state at the start of the current step
+  std::string next_state;  // the world at the end of the last step, stored already as the next one's start
 
   // ---- experimentation state ----
   // The knowledge base could not store: nothing of the step is done, the world is as the knowledge base says.
@@ -738,8 +742,14 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   };
   while (done < goal.experiments) {
     std::string refused;
-    step_state = takeCheckpoint(result.run_id, done, &refused);
-    if (!refused.empty()) return unstored("the world state of experiment " + std::to_string(done + 1), refused);
+    if (next_state.empty()) {
+      step_state = takeCheckpoint(result.run_id, done, &refused);
+      if (!refused.empty()) return unstored("the world state of experiment " + std::to_string(done + 1), refused);
+    } else {
+      step_state = next_state;
+      next_state.clear();
+    }
+    const std::string lineage = world_lineage_;
     const std::uint64_t losses_before = losses_;
     why = gate(context, goal.confirm_each);
     if (!why.empty()) return ended(why);
@@ -781,12 +791,18 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     ExperimentRecord record;
     runExperiment(experiment, design, context, record);
     if (context.stopRequested() && record.status != "done") return ended("stopped during an experiment");
-    if (lostDuring(losses_before, record) && !step_state.empty()) {
+    // The world as the experiment left it is the next step's start: taken now, before anything is stored, so
+    // that a simulator that died after the experiment, while nothing moved the world, is noticed too: the world
+    // it gives is another one (its lineage), and the experiment is done again.
+    std::string end_why, end_state = checkpointWorld(&end_why);
+    const bool replaced = !lineage.empty() && end_why.empty() && world_lineage_ != lineage;
+    if ((lostDuring(losses_before, record) || replaced) && !step_state.empty()) {
       // A component was lost during the experiment: what it did is not what an uninterrupted run would have
       // done. It is not stored; once every component is back, the world goes back to the step's state and the
       // same experiment (the same design stream) is done again.
-      ROS_WARN("%s: a component was lost during experiment %u (%s); doing it again from the world as it was",
-               name().c_str(), done + 1, record.status == "done" ? "it finished" : record.reason.c_str());
+      ROS_WARN("%s: a component was lost during experiment %u (%s%s); doing it again from the world as it was",
+               name().c_str(), done + 1, record.status == "done" ? "it finished" : record.reason.c_str(),
+               replaced ? "; the simulator's world is another one now" : "");
       why = returnTo(context, result.run_id, step_state);
       if (!why.empty()) return ended("cannot do experiment " + std::to_string(done + 1) + " again: " + why);
       if (chosen) {
@@ -794,6 +810,18 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         next_experiments_.push_front(experiment);
       }
       continue;
+    }
+    if (end_why.empty()) {  // the next step's state first: stored before the experiment, a resume never lacks it
+      Spending spending(wall_spent_, "checkpoint");
+      RecordWorldState next;
+      next.request.run_id = result.run_id;
+      next.request.step = done + 1;
+      next.request.state = end_state;
+      why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", next);
+      if (!why.empty()) {
+        if (!step_state.empty()) restoreCheckpoint(result.run_id, done, step_state);
+        return unstored("the world state after experiment " + std::to_string(done + 1), why);
+      }
     }
     RecordExperiment store;
     store.request.record = record;
@@ -807,6 +835,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       if (!step_state.empty()) restoreCheckpoint(result.run_id, done, step_state);
       return unstored("experiment " + std::to_string(done + 1), why);
     }
+    if (end_why.empty()) next_state = end_state;
     ++done;
     if (record.status == "done") {
       ++result.experiments_done;
@@ -831,8 +860,13 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   }
   for (std::uint32_t g = start.response.goals_done; g < goal.goals; ++g) {
     std::string refused;
+    const std::string lineage_before = world_lineage_;
     takeCheckpoint(result.run_id, goal.experiments + g, &refused);
     if (!refused.empty()) return unstored("the world state of goal " + std::to_string(g + 1), refused);
+    if (!lineage_before.empty() && world_lineage_ != lineage_before) {
+      ROS_WARN("%s: the simulator was replaced since the last step ended; goal %u starts from the world it has now "
+               "(a known gap: the world the last step left is lost)", name().c_str(), g + 1);
+    }
     why = gate(context, goal.confirm_each);  // sliding autonomy holds in both phases
     if (!why.empty()) return ended(why);
     FeatureVector scene;
@@ -864,7 +898,9 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     record_goal.request.target_x = design.response.target_x;
     record_goal.request.target_y = design.response.target_y;
     double error = INFINITY;
-    bool push_restored = false;  // a push done again starts from its own world state, not a new checkpoint
+    // A push starts from a state in memory when there is one (push_restored): its own, when it is done again, or
+    // the one the last push left; else from a new checkpoint.
+    bool push_restored = false;
     std::string redo_state;
     for (int push = 0; push <= max_goal_pushes_; ++push) {
       const ObjectFeatures* object = findObject(scene, design.response.object);
@@ -880,6 +916,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         push_state = redo_state;
       }
       push_restored = false;
+      const std::string push_lineage = world_lineage_;
       ChoosePush choose;
       choose.request.samples = modelSamples();
       choose.request.scene = scene;
@@ -901,7 +938,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       ExperimentRecord record;
       const std::uint64_t losses_before = losses_;
       runExperiment(choose.response.experiment, "goal", context, record);
-      if (lostDuring(losses_before, record) && !push_state.empty() && !context.stopRequested()) {
+      // As after an experiment: the world the push left, taken before anything is stored, from the same simulator.
+      std::string end_why, end_state = checkpointWorld(&end_why);
+      const bool replaced = !push_lineage.empty() && end_why.empty() && world_lineage_ != push_lineage;
+      if ((lostDuring(losses_before, record) || replaced) && !push_state.empty() && !context.stopRequested()) {
         ROS_WARN("%s: a component was lost during push %d of goal %u; doing it again from the world as it was",
                  name().c_str(), push + 1, g + 1);
         why = returnTo(context, result.run_id, push_state);
@@ -920,6 +960,10 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       if (!why.empty()) {
         if (!push_state.empty()) restoreCheckpoint(result.run_id, 0, push_state);
         return unstored("push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1), why);
+      }
+      if (end_why.empty()) {  // the next push starts from the world this one left, of this lineage
+        redo_state = end_state;
+        push_restored = true;
       }
       if (record.status == "done") {
         waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);

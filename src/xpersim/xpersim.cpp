@@ -18,6 +18,8 @@
 #include "xpersif/IrRanges.h"
 #include "xpersif/Scene.h"
 #include "xpersif/SetPose.h"
+#include <unistd.h>
+
 #include "xpersif/Lockstep.h"
 #include "xpersif/LockstepTick.h"
 #include "xpersif/Step.h"
@@ -175,6 +177,7 @@ void XPerSim::declareOperations() {
                         nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
                           std::lock_guard<std::mutex> lock(world_mutex_);
                           world_->reset();
+                          newLineageLocked();
                           if (!halted_.empty()) {
                             halted_.clear();
                             paused_ = false;
@@ -222,6 +225,7 @@ void XPerSim::declareOperations() {
         requireStandingWorld();
         response.state = world_->checkpoint();
         response.physics_time = world_->time();
+        response.lineage = lineage_;
         restoredLocked("checkpoint");
         response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
       });
@@ -241,6 +245,7 @@ void XPerSim::declareOperations() {
         // Simulated time never runs backwards in one simulator: the clock stays, the idle time makes up the difference.
         idle_time_ = std::max(0.0, clock - world_->time());
         response.physics_time = world_->time();
+        response.lineage = lineage_;
         restoredLocked("restore");
         response.message = "restored the world at t=" + core::describeNumber(world_->time()) + " s of physics";
       });
@@ -351,6 +356,7 @@ void XPerSim::onConfigure() {
   stopThread();
   std::lock_guard<std::mutex> lock(world_mutex_);
   world_ = std::move(world);
+  newLineageLocked();
   mode_ = mode == "fast" ? ClockMode::Fast : mode == "lockstep" ? ClockMode::Lockstep : ClockMode::RealTime;
   real_time_factor_ = real_time_factor;
   tf_period_ = 1.0 / tf_rate;
@@ -606,6 +612,11 @@ void XPerSim::stopThread() {
   running_ = false;
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+}
+
+void XPerSim::newLineageLocked() {
+  // This process and this moment: a restarted simulator, or a world built again, is never taken for the old one.
+  lineage_ = std::to_string(::getpid()) + "." + std::to_string(ros::WallTime::now().toNSec());
 }
 
 void XPerSim::restoredLocked(const std::string& what) {

@@ -122,6 +122,7 @@ class LoopModel : public Supervisor {
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
   std::atomic<std::uint64_t> losses_{0};
+  std::string world_lineage_;  // XPERSim's lineage of the world last checkpointed or restored (loop thread only)
   double latest_clock_ = 0;  // the latest simulated time the run's thread saw (a restored world's clock goes on after it)  // components lost so far (a step that saw one is done again)
   std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
   RunLoopFeedback progress_;

@@ -105,6 +105,8 @@ class XPerSim : public Component {
   int steps_per_tick_ = 10;
   std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
   std::uint64_t epoch_ = 0;  // checkpoints and restores so far (LockstepTick.epoch)
+  std::string lineage_;      // WorldState.lineage: new with every world built from the file
+  void newLineageLocked();
   double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
   double idle_period_ = 0.05;     // wall s without demand before an idle tick
   double last_tick_wall_ = 0;
