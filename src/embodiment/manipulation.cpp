@@ -72,7 +72,7 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       .check("localized(robot)",
              [this](const PushGoal& g) {
                core::Pose2D pose;
-               return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+               return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
              })
       .check("observed(scene)",
              [this](const PushGoal& g) {

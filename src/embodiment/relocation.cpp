@@ -61,7 +61,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       .check("localized(robot)",
              [this](const GoToPoseGoal& g) {
                core::Pose2D pose;
-               return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+               return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
              })
       .check("in_arena(?pose)",
              [this](const GoToPoseGoal& g) {
@@ -92,7 +92,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkHeading("goal.heading", g.heading); })
       .check("localized(robot)", [this](const TurnToGoal& g) {
         core::Pose2D pose;
-        return pose_source_ ? pose_source_->pose(g.pose_source, &pose) : "not configured";
+        return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
       });
   addCommand<TurnToAction>(
       turn_contract, [](const TurnToGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },

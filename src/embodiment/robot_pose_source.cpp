@@ -93,6 +93,17 @@ std::string RobotPoseSource::pose(const std::string& source, core::Pose2D* pose)
   return "";
 }
 
+std::string RobotPoseSource::poseForCommand(const std::string& source, core::Pose2D* pose_out,
+                                            double patience) const {
+  if (source == "observation") {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (correction_.hasOdometry() && !correction_.corrected()) {
+      arrived_.wait_for(lock, std::chrono::duration<double>(patience), [&] { return correction_.corrected(); });
+    }
+  }
+  return pose(source, pose_out);
+}
+
 void RobotPoseSource::velocity(double* linear, double* angular) const {
   std::lock_guard<std::mutex> lock(mutex_);
   *linear = linear_;

@@ -33,6 +33,10 @@ class RobotPoseSource {
 
   /// "" and the pose, or why there is none. @p source: "odometry" (or "") or "observation".
   std::string pose(const std::string& source, core::Pose2D* pose) const;
+  /// The same for a command's `localized(robot)`: from "observation" with odometry but no camera fix yet (the
+  /// simulator was just restarted or restored, so the correction was forgotten), it waits up to @p patience wall
+  /// seconds for the camera's next sight of the robot rather than refuse at once.
+  std::string poseForCommand(const std::string& source, core::Pose2D* pose, double patience = 2.0) const;
   /// "" when @p source is a known pose source.
   static std::string checkSource(const std::string& source);
   /// Latest speeds from odometry.
