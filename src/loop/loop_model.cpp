@@ -220,33 +220,28 @@ std::string call(ros::NodeHandle& nh, const std::string& name, Service& service,
   return "";
 }
 /// The same, patient with a component that is being restarted (LOOPMODEL brings it back) or not ready yet:
-/// retries while the answer is UNAVAILABLE or NOT_ACTIVE, for up to @p patience seconds.
+/// retries while the answer is UNAVAILABLE or NOT_ACTIVE (and, with @p unmet_too, PRECONDITION_FAILED: the PLANNER
+/// still reading contracts, DESIGNOFEXPERIMENTS before its first feature vector), for up to @p patience seconds
+/// or until @p stop says so.
 template <class Service>
-std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service& service, double patience = 60.0) {
+std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service& service, double patience = 60.0,
+                          bool unmet_too = false, const std::function<bool()>& stop = {}) {
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
   std::uint8_t code = ResultCode::OK;
   std::string why = call(nh, name, service, &code);
-  while (!why.empty() && ros::ok() && ros::WallTime::now() < until &&
-         (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE)) {
+  while (!why.empty() && ros::ok() && ros::WallTime::now() < until && !(stop && stop()) &&
+         (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE ||
+          (unmet_too && code == ResultCode::PRECONDITION_FAILED))) {
     ros::WallDuration(0.2).sleep();
     why = call(nh, name, service, &code);
   }
   return why;
 }
-/// Patient also with an unmet precondition, which a component just (re)started may not meet yet: the PLANNER
-/// still reading contracts, DESIGNOFEXPERIMENTS before its first feature vector. @p stop ends the wait.
+/// Patient also with an unmet precondition, which a component just (re)started may not meet yet.
 template <class Service>
 std::string callWhenReady(ros::NodeHandle& nh, const std::string& name, Service& service,
-                          const std::function<bool()>& stop, double patience = 60.0) {
-  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
-  std::uint8_t code = ResultCode::OK;
-  std::string why = call(nh, name, service, &code);
-  while (!why.empty() && ros::ok() && ros::WallTime::now() < until && !stop() &&
-         (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE || code == ResultCode::PRECONDITION_FAILED)) {
-    ros::WallDuration(0.2).sleep();
-    why = call(nh, name, service, &code);
-  }
-  return why;
+                          const std::function<bool()>& stop) {
+  return callPatiently(nh, name, service, 60.0, true, stop);
 }
 
 }  // namespace
@@ -451,16 +446,20 @@ std::string LoopModel::checkpointWorld(std::string* why) {
   return checkpoint.response.state;
 }
 
+std::string LoopModel::storeWorldState(std::uint64_t run_id, std::uint32_t step, const std::string& state) {
+  Spending spending(wall_spent_, "checkpoint");
+  RecordWorldState record;
+  record.request.run_id = run_id;
+  record.request.step = step;
+  record.request.state = state;
+  return callPatiently(nodeHandle(), "knowledge_base/record_world_state", record);
+}
+
 std::string LoopModel::takeCheckpoint(std::uint64_t run_id, std::uint32_t step, std::string* refused) {
   std::string why;
   const std::string state = checkpointWorld(&why);
   if (why.empty()) {
-    Spending spending(wall_spent_, "checkpoint");
-    RecordWorldState record;
-    record.request.run_id = run_id;
-    record.request.step = step;
-    record.request.state = state;
-    why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", record);
+    why = storeWorldState(run_id, step, state);
     // A knowledge base that cannot store (its disk full or read-only) will not store the step's results either:
     // the caller ends the run before the step, so that it can be resumed from here once the disk is fixed.
     if (!why.empty()) {
@@ -812,12 +811,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       continue;
     }
     if (end_why.empty()) {  // the next step's state first: stored before the experiment, a resume never lacks it
-      Spending spending(wall_spent_, "checkpoint");
-      RecordWorldState next;
-      next.request.run_id = result.run_id;
-      next.request.step = done + 1;
-      next.request.state = end_state;
-      why = callPatiently(nodeHandle(), "knowledge_base/record_world_state", next);
+      why = storeWorldState(result.run_id, done + 1, end_state);
       if (!why.empty()) {
         if (!step_state.empty()) restoreCheckpoint(result.run_id, done, step_state);
         return unstored("the world state after experiment " + std::to_string(done + 1), why);
@@ -898,24 +892,21 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     record_goal.request.target_x = design.response.target_x;
     record_goal.request.target_y = design.response.target_y;
     double error = INFINITY;
-    // A push starts from a state in memory when there is one (push_restored): its own, when it is done again, or
-    // the one the last push left; else from a new checkpoint.
-    bool push_restored = false;
-    std::string redo_state;
+    // A push starts from a state in memory when there is one: its own, when it is done again, or the one the last
+    // push left; else from a new checkpoint.
+    std::string next_push_state;
     for (int push = 0; push <= max_goal_pushes_; ++push) {
       const ObjectFeatures* object = findObject(scene, design.response.object);
       if (!object) break;
       error = std::hypot(object->position.x - design.response.target_x, object->position.y - design.response.target_y);
       if (error < goal_tolerance_ || push == max_goal_pushes_) break;
       // Each push starts from a checkpoint kept in memory: a push during which a component was lost is done again.
-      std::string push_state;
-      if (!push_restored) {
+      std::string push_state = std::move(next_push_state);
+      next_push_state.clear();
+      if (push_state.empty()) {
         std::string ignored;
         push_state = checkpointWorld(&ignored);
-      } else {
-        push_state = redo_state;
       }
-      push_restored = false;
       const std::string push_lineage = world_lineage_;
       ChoosePush choose;
       choose.request.samples = modelSamples();
@@ -946,8 +937,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
                  name().c_str(), push + 1, g + 1);
         why = returnTo(context, result.run_id, push_state);
         if (!why.empty()) return ended("cannot do push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1) + " again: " + why);
-        redo_state = push_state;
-        push_restored = true;
+        next_push_state = push_state;
         --push;
         continue;
       }
@@ -961,10 +951,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         if (!push_state.empty()) restoreCheckpoint(result.run_id, 0, push_state);
         return unstored("push " + std::to_string(push + 1) + " of goal " + std::to_string(g + 1), why);
       }
-      if (end_why.empty()) {  // the next push starts from the world this one left, of this lineage
-        redo_state = end_state;
-        push_restored = true;
-      }
+      if (end_why.empty()) next_push_state = end_state;  // the next push starts from the world this one left
       if (record.status == "done") {
         waitForLearning(static_cast<std::uint32_t>(start.response.experiments_done) + (++learned), context);
         scene = record.after;

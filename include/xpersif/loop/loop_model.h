@@ -91,6 +91,8 @@ class LoopModel : public Supervisor {
   /// goes on from it exactly as a world restored from it. Returns it, or "" (with a warning) when XPERSim could not
   /// give it; when the knowledge base did not store it, @p refused says why (the caller ends the run).
   std::string takeCheckpoint(std::uint64_t run_id, std::uint32_t step, std::string* refused);
+  /// Stores @p state as the world state at step @p step of run @p run_id; "" or why the knowledge base did not.
+  std::string storeWorldState(std::uint64_t run_id, std::uint32_t step, const std::string& state);
   /// XPERSim's checkpoint only (kept in memory by the caller); "" with @p why set when it could not be had.
   std::string checkpointWorld(std::string* why);
   /// Put the world back in @p state, or in the state stored for @p step of @p run_id when @p state is empty;
