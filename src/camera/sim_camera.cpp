@@ -1,5 +1,7 @@
 #include "xpersif/camera/sim_camera.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/UInt64MultiArray.h>
@@ -9,17 +11,26 @@ namespace xpersif {
 SimCamera::SimCamera(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/SimCameraNodelet") {}
 
+const core::ParameterTable& SimCamera::parameters() {
+  static const core::ParameterTable table(
+      "sim_camera",
+      {core::textParameter("camera", "", "the scene's camera to render; required"),
+       core::numberParameter("rate", 30.0, 0.1, 1000.0, "Hz of simulated time"),
+       core::textParameter("scene_topic", "xpersim/scene", "XPERSim's scene"),
+       core::flagParameter("report_buffer_address", false,
+                           "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)")});
+  return table;
+}
+
 void SimCamera::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string camera, topic = "xpersim/scene";
-  double rate = 30.0;
-  bool report = false;
-  if (!pnh.getParam("camera", camera)) throw std::runtime_error("~camera is not set; name a camera of the scene");
+  const ParameterReader parameters(pnh, SimCamera::parameters());
+  if (!parameters.has("camera")) throw std::runtime_error("~camera is not set; name a camera of the scene");
+  const std::string camera = parameters.get<std::string>("camera");
   core::requireIdentifier("~camera", camera);
-  pnh.param("rate", rate, rate);
-  pnh.param("scene_topic", topic, topic);
-  pnh.param("report_buffer_address", report, report);
-  core::requireInRange("~rate", rate, 0.1, 1000.0);
+  const double rate = parameters.get<double>("rate");
+  const std::string topic = parameters.get<std::string>("scene_topic");
+  const bool report = parameters.get<bool>("report_buffer_address");
 
   std::lock_guard<std::mutex> lock(mutex_);
   rate_ = rate;

@@ -1,6 +1,7 @@
 #include "xpersif/cognition/experiment_follower.h"
 
 #include "xpersif/GetExperiments.h"
+#include "xpersif/component/parameters.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif {
@@ -9,16 +10,29 @@ ExperimentFollower::Options ExperimentFollower::Options::fromParameters(const ro
                                                                        const std::string& who) {
   Options o;
   o.who = who;
-  pnh.param("restore", o.restore, o.restore);
-  pnh.param("restore_timeout", o.restore_timeout, o.restore_timeout);
-  pnh.param("experiments_topic", o.experiments_topic, o.experiments_topic);
-  pnh.param("run_topic", o.run_topic, o.run_topic);
-  pnh.param("knowledge_base", o.knowledge_base, o.knowledge_base);
-  core::requireInRange("~restore_timeout", o.restore_timeout, 0.1, 3600.0);
+  const ParameterReader parameters(pnh, Options::parameters());
+  o.restore = parameters.get<bool>("restore");
+  o.restore_timeout = parameters.get<double>("restore_timeout");
+  o.experiments_topic = parameters.get<std::string>("experiments_topic");
+  o.run_topic = parameters.get<std::string>("run_topic");
+  o.knowledge_base = parameters.get<std::string>("knowledge_base");
   core::requireIdentifier("~experiments_topic", o.experiments_topic, 256);
   core::requireIdentifier("~run_topic", o.run_topic, 256);
   core::requireIdentifier("~knowledge_base", o.knowledge_base, 256);
   return o;
+}
+
+const core::ParameterTable& ExperimentFollower::Options::parameters() {
+  const Options d;
+  static const core::ParameterTable table(
+      "experiment follower",
+      {core::flagParameter("restore", d.restore, "rebuild the state from the knowledge base's current run on activate"),
+       core::numberParameter("restore_timeout", d.restore_timeout, 0.1, 3600.0,
+                             "s of wall time to wait for the knowledge base when restoring"),
+       core::textParameter("experiments_topic", d.experiments_topic, "the stored experiments, as the KB publishes them"),
+       core::textParameter("run_topic", d.run_topic, "the KB's current run"),
+       core::textParameter("knowledge_base", d.knowledge_base, "namespace of the knowledge base's operations")});
+  return table;
 }
 
 ExperimentFollower::ExperimentFollower(ros::NodeHandle nh, Options options, Reset reset, Add add)

@@ -1,6 +1,8 @@
 #include "xpersif/ros/setup_loader.h"
 #include "xpersif/cognition/knowledge_base.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <std_msgs/UInt64.h>
 
 #include <cmath>
@@ -312,22 +314,33 @@ const core::SetupCatalogue& KnowledgeBaseComponent::catalogue() {
   return *catalogue_;
 }
 
+const core::ParameterTable& KnowledgeBaseComponent::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "knowledge_base",
+        {core::derivedParameter(core::ParameterSpec::Type::String, "database", "$ROS_HOME/xpersif/knowledge.db", 0, INFINITY,
+                                "the SQLite file (created with its directory), or :memory:"),
+         core::textParameter("model_topic", "machine_learning/model", "MACHINELEARNING's models, stored"),
+         core::textParameter("notions_topic", "machine_learning/notions", "MACHINELEARNING's notions, stored"),
+         core::textParameter("events_topic", kSharedEventsTopic, "every component's events (calls and their effects), stored"),
+         core::numberParameter("event_flush_period", 0.2, 0.01, 10.0, "s of wall time between writes of buffered calls"),
+         core::intParameter("max_pending_calls", 10000, 1, 1000000, "calls buffered at most (the oldest are dropped)")});
+    own.include(setupCatalogueParameters());
+    return own;
+  }();
+  return table;
+}
+
 void KnowledgeBaseComponent::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string path = defaultDatabasePath(), model_topic = "machine_learning/model",
-              notions_topic = "machine_learning/notions";
-  pnh.param("database", path, path);
-  pnh.param("model_topic", model_topic, model_topic);
-  pnh.param("notions_topic", notions_topic, notions_topic);
-  std::string events_topic = kSharedEventsTopic;
-  double event_flush_period = 0.2;
-  int max_pending_calls = 10000;
-  pnh.param("events_topic", events_topic, events_topic);
-  pnh.param("event_flush_period", event_flush_period, event_flush_period);
-  pnh.param("max_pending_calls", max_pending_calls, max_pending_calls);
+  const ParameterReader parameters(pnh, KnowledgeBaseComponent::parameters());
+  const std::string path = parameters.get<std::string>("database", defaultDatabasePath());
+  const std::string model_topic = parameters.get<std::string>("model_topic");
+  const std::string notions_topic = parameters.get<std::string>("notions_topic");
+  const std::string events_topic = parameters.get<std::string>("events_topic");
+  const double event_flush_period = parameters.get<double>("event_flush_period");
+  const int max_pending_calls = parameters.get<int>("max_pending_calls");
   if (events_topic.empty()) throw core::ValidationError("~events_topic is empty; give the topic of the components' events");
-  core::requireInRange("~event_flush_period", event_flush_period, 0.01, 10.0);
-  core::requireInRange("~max_pending_calls", max_pending_calls, 1, 1000000);
   if (path.empty()) throw core::ValidationError("~database is empty; give a file path (or :memory:)");
   if (path != ":memory:") {
     const std::filesystem::path parent = std::filesystem::path(path).parent_path();

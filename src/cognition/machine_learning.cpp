@@ -1,6 +1,9 @@
 #include "xpersif/cognition/machine_learning.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
+#include <cmath>
 
 #include "xpersif/core/experiment_samples.h"
 #include "xpersif/ros/experiment_conversions.h"
@@ -81,33 +84,52 @@ MachineLearning::~MachineLearning() {
   if (follower_) follower_->stop();
 }
 
+const core::ParameterTable& MachineLearning::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    const core::PushModelConfig d;
+    core::ParameterTable own(
+        "machine_learning",
+        {core::textParameter("learner_type", "random_forest",
+                             "the push model plugin: random_forest, gaussian_process or another package's (README, Plugins)"),
+         core::namesParameter("features", d.feature_names, core::kMaxExtraFeatures,
+                              "the object's features the model learns from, besides the push"),
+         ParameterSpec{"feature_scales", ParameterSpec::Type::Dictionary, {}, "{hue: 30, size: 0.01}", -INFINITY, INFINITY, {},
+                       "a scale per feature name (the model divides the feature by it)"},
+         core::flagParameter("one_hot_identity", true, "encode the object's identity as an input"),
+         core::intParameter("seed", 1, 0, 2147483647, "the learner's seed"),
+         ParameterSpec{"learner_options", ParameterSpec::Type::Dictionary, {}, "{}", -INFINITY, INFINITY, {},
+                       "options of the learner plugin, name to number (README, Plugins)"},
+         ParameterSpec{"ensemble_size", ParameterSpec::Type::Int, {}, "the plugin's (8)", 1, 256, {},
+                       "random_forest: forests in the bootstrap ensemble (also ~learner_options/ensemble_size)"},
+         ParameterSpec{"trees_per_member", ParameterSpec::Type::Int, {}, "the plugin's (16)", 1, 1024, {},
+                       "random_forest: trees per forest (also ~learner_options/trees_per_member)"}});
+    own.include(ExperimentFollower::Options::parameters()).include(setupCatalogueParameters());
+    return own;
+  }();
+  return table;
+}
+
 void MachineLearning::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
+  const ParameterReader parameters(pnh, MachineLearning::parameters());
   core::PushModelConfig config;
-  config.one_hot_identity = true;
   // The identities to encode: the objects of XPERSim's scene, in world-file order (~objects may restrict them).
   config.identities = loadSetupCatalogue(nodeHandle(), pnh).names();
-  std::string learner_type = "random_forest";
-  pnh.param("learner_type", learner_type, learner_type);
-  pnh.param("features", config.feature_names, config.feature_names);
-  std::map<std::string, double> scales;
-  if (pnh.getParam("feature_scales", scales)) config.feature_scales = scales;
-  pnh.param("one_hot_identity", config.one_hot_identity, config.one_hot_identity);
-  int seed = 1;
-  pnh.param("seed", seed, seed);
-  core::requireInRange("~seed", seed, 0, 2147483647.0);
-  core::requireMaxSize("~features", config.feature_names.size(), core::kMaxExtraFeatures);
-  config.seed = static_cast<std::uint64_t>(seed);
-  if (pnh.hasParam("learner_options") && !pnh.getParam("learner_options", config.options)) {
-    throw core::ValidationError("~learner_options must be a dictionary of numbers");
+  const std::string learner_type = parameters.get<std::string>("learner_type");
+  config.feature_names = parameters.get<std::vector<std::string>>("features");
+  if (parameters.has("feature_scales")) config.feature_scales = parameters.get<std::map<std::string, double>>("feature_scales");
+  config.one_hot_identity = parameters.get<bool>("one_hot_identity");
+  config.seed = static_cast<std::uint64_t>(parameters.get<int>("seed"));
+  if (parameters.has("learner_options")) {
+    for (const auto& [option, value] : parameters.get<std::map<std::string, double>>("learner_options")) {
+      config.options[option] = value;
+    }
   }
   // The forest's own parameters, kept from before learners were plugins.
   if (learner_type == "random_forest") {
     for (const std::string option : {"ensemble_size", "trees_per_member"}) {
-      int value = 0;
-      if (!pnh.getParam(option, value)) continue;
-      core::requireInRange("~" + option, value, 1, option == "ensemble_size" ? 256 : 1024);
-      config.options[option] = value;
+      if (parameters.has(option)) config.options[option] = parameters.get<int>(option, 0);
     }
   }
   auto learner = makeModel(learner_type, config);  // throws with the reason for an unknown type or a bad config

@@ -1,5 +1,7 @@
 #include "xpersif/cognition/motivation.h"
 
+#include "xpersif/component/parameters.h"
+
 #include "xpersif/ros/experiment_conversions.h"
 #include "xpersif/ros/setup_loader.h"
 
@@ -7,11 +9,17 @@ namespace xpersif {
 
 // ---- surprise -------------------------------------------------------------------------------------------
 
+const core::ParameterTable& SurprisePart::parameters() {
+  static const core::ParameterTable table(
+      "surprise part",
+      {core::derivedParameter(core::ParameterSpec::Type::Double, "yaw_length", "the objects' mean half-size", 1e-4, 1.0,
+                              "part surprise: m of travel a turn of one radian counts as in the prediction error")});
+  return table;
+}
+
 void SurprisePart::configure(const ros::NodeHandle& parameters) {
-  double yaw_length = default_yaw_length_;
-  parameters.param("yaw_length", yaw_length, yaw_length);
-  core::requireInRange(parameters.getNamespace() + "/yaw_length", yaw_length, 1e-4, 1.0);
-  yaw_length_ = yaw_length;
+  yaw_length_ = ParameterReader(parameters, SurprisePart::parameters(), "~" + name() + "/")
+                    .get<double>("yaw_length", default_yaw_length_);
 }
 
 std::optional<core::Surprise> SurprisePart::score(const ExperimentRecord& record) const {
@@ -25,24 +33,31 @@ std::optional<core::Surprise> SurprisePart::score(const ExperimentRecord& record
 
 // ---- curiosity ------------------------------------------------------------------------------------------
 
+const core::ParameterTable& CuriosityPart::parameters() {
+  static const core::ParameterTable table = [] {
+    const core::CuriosityConfig d;
+    return core::ParameterTable(
+        "curiosity part",
+        {core::intParameter("offset_bins", d.offset_bins, 1, 100, "part curiosity: offset bins per face of a region"),
+         core::intParameter("window", static_cast<int>(d.window), 1, 1000,
+                            "part curiosity: errors per window (older against newer) of the learning progress"),
+         core::intParameter("min_visits", static_cast<int>(d.min_visits), 0, 1000,
+                            "part curiosity: below this many experiments a region is unexplored"),
+         core::textParameter("measure", "error", "part curiosity: which prediction error the regions keep",
+                             {"error", "normalized"})});
+  }();
+  return table;
+}
+
 void CuriosityPart::configure(const ros::NodeHandle& parameters) {
+  const ParameterReader reader(parameters, CuriosityPart::parameters(), "~" + name() + "/");
   core::CuriosityConfig config;
   config.objects = objects_;
   config.footprints = footprints_;
-  int bins = config.offset_bins, window = static_cast<int>(config.window), min_visits = static_cast<int>(config.min_visits);
-  std::string measure = "error";
-  parameters.param("offset_bins", bins, bins);
-  parameters.param("window", window, window);
-  parameters.param("min_visits", min_visits, min_visits);
-  parameters.param("measure", measure, measure);
-  const std::string ns = parameters.getNamespace();
-  core::requireInRange(ns + "/offset_bins", bins, 1, 100);
-  core::requireInRange(ns + "/window", window, 1, 1000);
-  core::requireInRange(ns + "/min_visits", min_visits, 0, 1000);
-  core::requireOneOf(ns + "/measure", measure, {"error", "normalized"});
-  config.offset_bins = bins;
-  config.window = static_cast<std::size_t>(window);
-  config.min_visits = static_cast<std::size_t>(min_visits);
+  config.offset_bins = reader.get<int>("offset_bins");
+  config.window = static_cast<std::size_t>(reader.get<int>("window"));
+  config.min_visits = static_cast<std::size_t>(reader.get<int>("min_visits"));
+  const std::string measure = reader.get<std::string>("measure");
   auto map = std::make_unique<core::CuriosityMap>(config);  // throws with the reason (e.g. no objects)
   config_ = config;
   normalized_ = measure == "normalized";
@@ -87,6 +102,18 @@ MotivationComponent::MotivationComponent(ros::NodeHandle nh, ros::NodeHandle pri
 
 MotivationComponent::~MotivationComponent() {
   if (follower_) follower_->stop();
+}
+
+const core::ParameterTable& MotivationComponent::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own("motivation", {});
+    own.include(SurprisePart::parameters(), "surprise/")
+        .include(CuriosityPart::parameters(), "curiosity/")
+        .include(ExperimentFollower::Options::parameters())
+        .include(setupCatalogueParameters());
+    return own;
+  }();
+  return table;
 }
 
 void MotivationComponent::onConfigure() {

@@ -1,6 +1,7 @@
 #include "xpersif/component/component.h"
 
 #include "xpersif/Contract.h"
+#include "xpersif/component/parameters.h"
 
 namespace xpersif {
 
@@ -11,7 +12,10 @@ Component::Component(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string
       type_(std::move(type)),
       events_(pnh_, name_) {
   lifecycle_.setHooks({
-      [this] { onConfigure(); },
+      [this] {
+        onConfigure();
+        warnUndeclaredParameters();
+      },
       [this] { onActivate(); },
       [this] {
         stopCommands("component " + name_ + " was deactivated while the command ran");
@@ -25,11 +29,12 @@ Component::~Component() { halt(); }
 
 void Component::start() {
   if (started_) return;
+  const ParameterReader parameters(pnh_, baseParameters());
   double rate = 5.0;
-  pnh_.param("heartbeat_rate", rate, rate);
-  if (!(rate > 0.1 && rate < 1000.0)) {
-    ROS_WARN_STREAM(name_ << ": ~heartbeat_rate " << core::describeNumber(rate) << " is outside (0.1, 1000) Hz; using 5");
-    rate = 5.0;
+  try {
+    rate = parameters.get<double>("heartbeat_rate");
+  } catch (const core::ValidationError& e) {
+    ROS_WARN_STREAM(name_ << ": " << e.what() << "; using 5");  // start() cannot fail: the status says the rest
   }
   heartbeat_period_ = 1.0 / rate;
   // Status and heartbeat are latched so a supervisor that subscribes late sees the state at once.
@@ -68,13 +73,40 @@ void Component::start() {
   heartbeat_spinner_->start();
 
   bool autostart = false;
-  pnh_.param("autostart", autostart, autostart);
+  try {
+    autostart = parameters.get<bool>("autostart");
+  } catch (const core::ValidationError& e) {
+    ROS_WARN_STREAM(name_ << ": " << e.what() << "; not starting by itself");
+  }
   if (autostart) {
     // Deferred to a callback: a nodelet's onInit runs inside the manager's load service, and a
     // component's start-up may itself call that manager (organizational components do).
     autostart_timer_ = pnh_.createWallTimer(ros::WallDuration(0.01), [this](const ros::WallTimerEvent&) {
       if (transition(LifecycleTransition::Configure).success) transition(LifecycleTransition::Activate);
     }, true);
+  }
+}
+
+const core::ParameterTable& Component::baseParameters() {
+  static const core::ParameterTable table(
+      "every component",
+      {core::numberParameter("heartbeat_rate", 5.0, 0.1, 1000.0,
+                             "Hz of wall time at which ~status is published (the supervisor's heartbeat)"),
+       core::flagParameter("autostart", false,
+                           "configure and activate right after start, for use without a supervisor")});
+  return table;
+}
+
+void Component::warnUndeclaredParameters() {
+  const core::ParameterTable* declared = declaredParameters();
+  if (!declared) return;
+  std::vector<std::string> set;
+  for (const auto& name : parametersSetUnder(pnh_)) {
+    if (!baseParameters().find(name)) set.push_back(name);
+  }
+  for (const auto& unknown : declared->undeclared(set)) {
+    ROS_WARN_STREAM(name_ << ": " << unknown << " is set, but " << type_
+                          << " does not read it (README, Parameter reference)");
   }
 }
 

@@ -9,8 +9,19 @@
 
 namespace xpersif {
 
+const core::ParameterTable& LockstepClient::parameters() {
+  static const core::ParameterTable table(
+      "lockstep client",
+      {core::textParameter("lockstep_xpersim", "xpersim",
+                           "the XPERSim whose lockstep clock this component joins (also found in a parent namespace)")});
+  return table;
+}
+
 LockstepClient::LockstepClient(ros::NodeHandle nh, const ros::NodeHandle& private_nh, std::string name, bool sensor)
-    : nh_(std::move(nh)), name_(std::move(name)), xpersim_("xpersim"), sensor_(sensor) {
+    : nh_(std::move(nh)),
+      name_(std::move(name)),
+      xpersim_(std::get<std::string>(parameters().at("lockstep_xpersim").default_value)),
+      sensor_(sensor) {
   std::string key, mode;
   if (private_nh.searchParam("lockstep_xpersim", key)) private_nh.getParam(key, xpersim_);
   xpersim_ = nh_.resolveName(xpersim_);

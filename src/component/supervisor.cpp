@@ -1,5 +1,9 @@
 #include "xpersif/component/supervisor.h"
 
+#include <cmath>
+
+#include "xpersif/component/parameters.h"
+
 #include <nodelet/NodeletList.h>
 #include <nodelet/NodeletLoad.h>
 #include <nodelet/NodeletUnload.h>
@@ -76,14 +80,28 @@ std::vector<SupervisedComponent> Supervisor::parseComponents(const XmlRpc::XmlRp
   return components;
 }
 
+const core::ParameterTable& Supervisor::parameters() {
+  static const core::ParameterTable table(
+      "supervisor",
+      {core::ParameterSpec{"components", core::ParameterSpec::Type::Structure, {}, "[]", -INFINITY, INFINITY, {},
+                           "the supervised components in start order: a list of {name, type, manager, activate, "
+                           "params} (README, The component model)"},
+       core::namesParameter("omit", {}, 256, "components of ~components to leave out (a launch file's switch)"),
+       core::numberParameter("heartbeat_timeout", 1.0, 0.05, 600.0,
+                             "s of wall time without a status before a component counts as lost"),
+       core::numberParameter("startup_timeout", 10.0, 0.1, 3600.0,
+                             "s of wall time a component may take to load and send its first status"),
+       core::flagParameter("restart", true, "restart a lost component (its manager respawned by roslaunch)")});
+  return table;
+}
+
 void Supervisor::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
+  const ParameterReader parameters(pnh, Supervisor::parameters());
   XmlRpc::XmlRpcValue list;
   std::vector<SupervisedComponent> components;
   if (pnh.getParam("components", list)) components = parseComponents(list, nodeHandle());
-  // ~omit: components of the list to leave out (a launch file's switch, e.g. snapshot:=false).
-  std::vector<std::string> omit;
-  pnh.param("omit", omit, omit);
+  const std::vector<std::string> omit = parameters.get<std::vector<std::string>>("omit");
   for (const std::string& name : omit) {
     const std::string resolved = nodeHandle().resolveName(name);
     const auto it = std::find_if(components.begin(), components.end(),
@@ -91,13 +109,9 @@ void Supervisor::onConfigure() {
     if (it == components.end()) throw std::runtime_error("~omit names " + name + ", which is not in ~components");
     components.erase(it);
   }
-  double heartbeat_timeout = 1.0, startup_timeout = 10.0;
-  bool restart = true;
-  pnh.param("heartbeat_timeout", heartbeat_timeout, heartbeat_timeout);
-  pnh.param("startup_timeout", startup_timeout, startup_timeout);
-  pnh.param("restart", restart, restart);
-  core::requireInRange("~heartbeat_timeout", heartbeat_timeout, 0.05, 600.0);
-  core::requireInRange("~startup_timeout", startup_timeout, 0.1, 3600.0);
+  const double heartbeat_timeout = parameters.get<double>("heartbeat_timeout");
+  const double startup_timeout = parameters.get<double>("startup_timeout");
+  const bool restart = parameters.get<bool>("restart");
   // Everything is checked before anything changes: a bad configuration leaves the old one in place.
   stopMonitor();
   components_ = std::move(components);

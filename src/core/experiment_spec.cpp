@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <optional>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -254,8 +255,33 @@ Override parseOverride(const std::string& text) {
   return {text.substr(0, eq), text.substr(eq + 1)};
 }
 
+namespace {
+/// The YAML value as the declaration's type, or nullopt when it is not of that type.
+std::optional<ParameterSpec::Value> valueAs(const ParameterSpec& spec, const YAML::Node& node) {
+  try {
+    switch (spec.type) {
+      case ParameterSpec::Type::Bool: return ParameterSpec::Value(node.as<bool>());
+      case ParameterSpec::Type::Int: return ParameterSpec::Value(node.as<int>());
+      case ParameterSpec::Type::Double: return ParameterSpec::Value(node.as<double>());
+      case ParameterSpec::Type::String:
+        if (!node.IsScalar()) return std::nullopt;
+        return ParameterSpec::Value(node.as<std::string>());
+      case ParameterSpec::Type::StringList: return ParameterSpec::Value(node.as<std::vector<std::string>>());
+      case ParameterSpec::Type::DoubleList: return ParameterSpec::Value(node.as<std::vector<double>>());
+      case ParameterSpec::Type::Dictionary:
+        if (!node.IsMap()) return std::nullopt;
+        return ParameterSpec::Value();
+      case ParameterSpec::Type::Structure: return ParameterSpec::Value();
+    }
+  } catch (const YAML::Exception&) {
+  }
+  return std::nullopt;
+}
+}  // namespace
+
 ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Override>& overrides,
-                                  const std::vector<std::string>& known_components) {
+                                  const std::vector<std::string>& known_components,
+                                  const std::map<std::string, const ParameterTable*>& declared) {
   std::error_code error;
   if (!fs::is_regular_file(path, error)) {
     throw ExperimentFileError(path + ": no such experiment file");
@@ -350,9 +376,23 @@ ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Ove
         }
         r.identifier(entry.first, key);
         r.requireMap(entry.second, key);
+        const auto table = declared.find(component);
         for (const auto& value : entry.second) {
-          r.identifier(value.first, key + "." + value.first.Scalar());
-          if (value.second.IsNull()) r.fail(key + "." + value.first.Scalar(), "has no value", value.second);
+          const std::string name = value.first.Scalar(), where = key + "." + name;
+          r.identifier(value.first, where);
+          if (value.second.IsNull()) r.fail(where, "has no value", value.second);
+          if (table == declared.end() || !table->second) continue;
+          const ParameterTable& parameters = *table->second;
+          const ParameterSpec* spec = parameters.find(name);
+          if (!spec) {
+            r.fail(where, "is not a parameter of " + component + ": " + parameters.undeclared({name}).front() +
+                              " is not declared (README, Parameter reference)", value.first);
+          }
+          if (spec->set_by_component) r.fail(where, "is set by " + component + " itself, not read", value.first);
+          const auto typed = valueAs(*spec, value.second);
+          if (!typed) r.fail(where, "must be of type " + spec->typeName() + " (" + spec->meaning + ")", value.second);
+          const std::string why = checkParameter(*spec, *typed, where);
+          if (!why.empty()) throw ExperimentFileError(path + ": " + why + at(value.second));
         }
         YAML::Emitter out;
         out << YAML::Flow << entry.second;
@@ -428,6 +468,18 @@ std::string worldWithRobot(const std::string& world_file, const std::string& urd
   YAML::Emitter out;
   out << world;
   return "# " + world_file + " as run, its robot's URDF beside it (xpersif_experiment).\n" + out.c_str() + "\n";
+}
+
+std::map<std::string, std::string> componentTypes(const std::string& config_file) {
+  const YAML::Node config = loadYaml(config_file, "component list");
+  std::map<std::string, std::string> types;
+  if (!config.IsMap() || !config["components"] || !config["components"].IsSequence()) return types;
+  for (const auto& c : config["components"]) {
+    if (c.IsMap() && c["name"] && c["name"].IsScalar() && c["type"] && c["type"].IsScalar()) {
+      types[c["name"].Scalar()] = c["type"].Scalar();
+    }
+  }
+  return types;
 }
 
 std::vector<std::string> componentNames(const std::string& config_file) {

@@ -1,5 +1,7 @@
 #include "xpersif/decision/design_of_experiments.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -55,45 +57,75 @@ DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle pri
       });
 }
 
+const core::ParameterTable& DesignOfExperiments::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    const core::DesignOptions d;
+    core::ParameterTable own(
+        "design_of_experiments",
+        {core::textParameter("design", "curiosity",
+                             "the design plugin: curiosity, random, grid, learning_progress, error_max or another "
+                             "package's (README, Plugins)"),
+         core::intParameter("seed", 1, 0, 2147483647, "the campaign's seed; every choice draws from (seed, run, experiment)"),
+         core::numberParameter("min_offset", d.min_offset, -1.0, 1.0, "smallest offset, as a fraction of the face's limit"),
+         core::numberParameter("max_offset", d.max_offset, -1.0, 1.0, "largest offset, as a fraction of the face's limit"),
+         core::derivedParameter(ParameterSpec::Type::Double, "min_distance", "A / 40, from the scene", 1e-6, 100.0,
+                                "m: shortest push after contact"),
+         core::derivedParameter(ParameterSpec::Type::Double, "max_distance", "A / 4, from the scene", 1e-6, 100.0,
+                                "m: longest push after contact"),
+         core::numbersParameter("grid_offsets", d.grid_offsets, -1.0, 1.0, "grid design: offsets, fractions of the face's limit"),
+         core::numbersParameter("grid_distances", d.grid_distances, 1e-6, 1.0,
+                                "grid design: distances, fractions of ~max_distance"),
+         core::intParameter("candidates", static_cast<int>(d.candidates), 1, 10000,
+                            "curiosity design: candidate pushes sampled per decision"),
+         core::numberParameter("epsilon", d.epsilon, 0.0, 1.0,
+                               "probability of a random candidate (curiosity) or region (region_choice greedy)"),
+         core::intParameter("offset_bins", 3, 1, 100, "offset bins per face of curiosity's regions (as MOTIVATION's)"),
+         core::numberParameter("optimistic_curiosity", 1.0, -1e9, 1e9, "curiosity of a region not yet visited"),
+         core::intParameter("region_max_size", static_cast<int>(d.region_max_size), 4, 10000,
+                            "region designs: a region holding more experiments is split"),
+         core::intParameter("progress_window", static_cast<int>(d.progress_window), 1, 1000,
+                            "region designs: held-out errors per window of the learning progress"),
+         core::textParameter("region_choice", d.region_choice, "region designs: how a region is chosen",
+                             {"softmax", "greedy"}),
+         core::numberParameter("temperature", d.temperature, 0.001, 100.0,
+                               "region designs: softmax temperature, relative to the largest interest"),
+         core::numberParameter("random_share", d.random_share, 0.0, 1.0,
+                               "region designs: probability of a uniformly random push over the whole space"),
+         core::textParameter("features_topic", "vision/features", "VISION's feature vectors (which objects are seen)"),
+         core::textParameter("motivation_topic", "motivation/motivation", "MOTIVATION's regions and curiosity")});
+    own.include(ExperimentFollower::Options::parameters()).include(setupCatalogueParameters());
+    return own;
+  }();
+  return table;
+}
+
 void DesignOfExperiments::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string design = "curiosity", features_topic = "vision/features", motivation_topic = "motivation/motivation";
-  int seed = 1, candidates = 32, offset_bins = 3;
-  double optimistic = 1.0;
+  const ParameterReader parameters(pnh, DesignOfExperiments::parameters());
   // The objects and the push limits come from XPERSim's scene (~objects may leave some out).
   const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
   core::DesignOptions options;
-  options.min_distance = catalogue.minPushDistance();
-  options.max_distance = catalogue.maxPushDistance();
-  pnh.param("design", design, design);
-  pnh.param("seed", seed, seed);
-  pnh.param("min_offset", options.min_offset, options.min_offset);
-  pnh.param("max_offset", options.max_offset, options.max_offset);
-  pnh.param("min_distance", options.min_distance, options.min_distance);
-  pnh.param("max_distance", options.max_distance, options.max_distance);
-  pnh.param("grid_offsets", options.grid_offsets, options.grid_offsets);
-  pnh.param("grid_distances", options.grid_distances, options.grid_distances);
-  pnh.param("candidates", candidates, candidates);
-  pnh.param("epsilon", options.epsilon, options.epsilon);
-  pnh.param("offset_bins", offset_bins, offset_bins);
-  pnh.param("optimistic_curiosity", optimistic, optimistic);
-  int region_max_size = static_cast<int>(options.region_max_size), progress_window = static_cast<int>(options.progress_window);
-  pnh.param("region_max_size", region_max_size, region_max_size);
-  pnh.param("progress_window", progress_window, progress_window);
-  pnh.param("region_choice", options.region_choice, options.region_choice);
-  pnh.param("temperature", options.temperature, options.temperature);
-  pnh.param("random_share", options.random_share, options.random_share);
-  core::requireInRange("~region_max_size", region_max_size, 4, 10000);
-  core::requireInRange("~progress_window", progress_window, 1, 1000);
-  options.region_max_size = static_cast<std::size_t>(region_max_size);
-  options.progress_window = static_cast<std::size_t>(progress_window);
+  const std::string design = parameters.get<std::string>("design");
+  const int seed = parameters.get<int>("seed");
+  options.min_offset = parameters.get<double>("min_offset");
+  options.max_offset = parameters.get<double>("max_offset");
+  options.min_distance = parameters.get<double>("min_distance", catalogue.minPushDistance());
+  options.max_distance = parameters.get<double>("max_distance", catalogue.maxPushDistance());
+  options.grid_offsets = parameters.get<std::vector<double>>("grid_offsets");
+  options.grid_distances = parameters.get<std::vector<double>>("grid_distances");
+  options.candidates = static_cast<std::size_t>(parameters.get<int>("candidates"));
+  options.epsilon = parameters.get<double>("epsilon");
+  const int offset_bins = parameters.get<int>("offset_bins");
+  const double optimistic = parameters.get<double>("optimistic_curiosity");
+  options.region_max_size = static_cast<std::size_t>(parameters.get<int>("region_max_size"));
+  options.progress_window = static_cast<std::size_t>(parameters.get<int>("progress_window"));
+  options.region_choice = parameters.get<std::string>("region_choice");
+  options.temperature = parameters.get<double>("temperature");
+  options.random_share = parameters.get<double>("random_share");
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
-  pnh.param("features_topic", features_topic, features_topic);
-  pnh.param("motivation_topic", motivation_topic, motivation_topic);
-  core::requireInRange("~seed", seed, 0, 2147483647.0);
-  core::requireInRange("~candidates", candidates, 1, 10000);
-  core::requireFinite("~optimistic_curiosity", optimistic);
-  options.candidates = static_cast<std::size_t>(candidates);
+  const std::string features_topic = parameters.get<std::string>("features_topic");
+  const std::string motivation_topic = parameters.get<std::string>("motivation_topic");
   // Throws for an undeclared design (listing the declared ones) or bad options.
   auto made = makeDesign("~design", design, static_cast<unsigned long>(seed), options);
   core::CuriosityConfig regions;

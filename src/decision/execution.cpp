@@ -1,5 +1,7 @@
 #include "xpersif/decision/execution.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -199,26 +201,35 @@ Execution::Execution(ros::NodeHandle nh, ros::NodeHandle private_nh)
 
 Execution::~Execution() = default;
 
+const core::ParameterTable& Execution::parameters() {
+  static const core::ParameterTable table(
+      "execution",
+      {core::numberParameter("max_age", 1.0, 0.0, 3600.0, "s: the oldest feature vector an observation step accepts"),
+       core::numberParameter("fresh_timeout", 5.0, 0.0, 600.0,
+                             "s to wait for a feature vector newer than the step's request"),
+       core::numberParameter("server_timeout", 10.0, 0.01, 600.0,
+                             "s of wall time to wait for a step's action server or service"),
+       core::numberParameter("step_timeout", 300.0, 1.0, 36000.0, "s a command step may take"),
+       core::intParameter("max_replans", 2, 0, 10, "replans per goal after a step fails for good"),
+       core::intParameter("max_depth", 8, 1, 64, "the longest replanned plan, in steps"),
+       core::namesParameter("components", {"observation", "vision", "manipulation", "relocation"}, 64,
+                            "the components whose contracts are the replanning operators"),
+       core::namesParameter("prefer", {"vision"}, 64, "components preferred when operators tie")});
+  return table;
+}
+
 void Execution::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  double max_age = 1.0, fresh_timeout = 5.0, server_timeout = 10.0, step_timeout = 300.0;
-  pnh.param("max_age", max_age, max_age);
-  pnh.param("fresh_timeout", fresh_timeout, fresh_timeout);
-  pnh.param("server_timeout", server_timeout, server_timeout);
-  pnh.param("step_timeout", step_timeout, step_timeout);
-  int max_replans = 2, max_depth = 8;
-  std::vector<std::string> components{"observation", "vision", "manipulation", "relocation"}, prefer{"vision"};
-  pnh.param("max_replans", max_replans, max_replans);
-  pnh.param("max_depth", max_depth, max_depth);
-  pnh.param("components", components, components);
-  pnh.param("prefer", prefer, prefer);
-  core::requireInRange("~max_replans", max_replans, 0, 10);
-  core::requireInRange("~max_depth", max_depth, 1, 64);
+  const ParameterReader parameters(pnh, Execution::parameters());
+  const double max_age = parameters.get<double>("max_age");
+  const double fresh_timeout = parameters.get<double>("fresh_timeout");
+  const double server_timeout = parameters.get<double>("server_timeout");
+  const double step_timeout = parameters.get<double>("step_timeout");
+  const int max_replans = parameters.get<int>("max_replans");
+  const int max_depth = parameters.get<int>("max_depth");
+  const std::vector<std::string> components = parameters.get<std::vector<std::string>>("components");
+  const std::vector<std::string> prefer = parameters.get<std::vector<std::string>>("prefer");
   for (const auto& c : components) core::requireIdentifier("~components entry", c);
-  core::requireInRange("~max_age", max_age, 0.0, 3600.0);
-  core::requireInRange("~fresh_timeout", fresh_timeout, 0.0, 600.0);
-  core::requireInRange("~server_timeout", server_timeout, 0.01, 600.0);
-  core::requireInRange("~step_timeout", step_timeout, 1.0, 36000.0);
   std::lock_guard<std::mutex> lock(mutex_);
   max_age_ = max_age;
   fresh_timeout_ = fresh_timeout;

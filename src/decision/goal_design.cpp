@@ -1,5 +1,7 @@
 #include "xpersif/decision/goal_design.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -74,10 +76,38 @@ GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
       [this](const ChoosePush::Request& request, ChoosePush::Response& response) { choosePush(request, response); });
 }
 
+const core::ParameterTable& GoalDesign::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "goal_design",
+        {core::intParameter("seed", 1, 0, 2147483647, "the campaign's seed; goals and candidates draw from (seed, run, goal)"),
+         core::derivedParameter(ParameterSpec::Type::Double, "min_target_distance", "L / 3 (L the longest push)", 0.001,
+                                1.0, "m: nearest target from the object"),
+         core::derivedParameter(ParameterSpec::Type::Double, "max_target_distance", "L", 0.001, 1.0,
+                                "m: farthest target from the object (at least ~min_target_distance)"),
+         core::derivedParameter(ParameterSpec::Type::Double, "wall_clearance", "c + 1.5 R", 0.0, 1.0,
+                                "m: a target's distance from the walls"),
+         core::derivedParameter(ParameterSpec::Type::Double, "object_clearance", "2 c", 0.0, 1.0,
+                                "m: a target's distance from the other objects"),
+         core::numbersParameter("offsets", {-0.75, -0.375, 0.0, 0.375, 0.75}, -1.0, 1.0,
+                                "candidate pushes' offsets, fractions of each face's limit"),
+         core::numbersParameter("distances", {0.15, 0.3, 0.45, 0.6, 0.75, 0.9}, 1e-3, 1.0,
+                                "candidate pushes' distances, fractions of the longest push"),
+         core::intParameter("random_candidates", 256, 0, 100000, "seeded random candidate pushes besides the grid"),
+         core::numberParameter("uncertainty_weight", 1.0, 0.0, 100.0,
+                               "weight of the predicted end's variance against its squared distance to the target"),
+         core::textParameter("model_topic", "machine_learning/model", "MACHINELEARNING's published model"),
+         core::textParameter("notions_topic", "machine_learning/notions", "MACHINELEARNING's notions")});
+    own.include(setupCatalogueParameters());
+    return own;
+  }();
+  return table;
+}
+
 void GoalDesign::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  int seed = 1, random_candidates = 256;
-  double uncertainty_weight = 1.0;
+  const ParameterReader parameters(pnh, GoalDesign::parameters());
   // Objects, the arena and every distance below come from XPERSim's scene (~objects may leave some out).
   const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
   double largest = 0;  // the largest object's circumradius
@@ -86,31 +116,18 @@ void GoalDesign::onConfigure() {
   // Targets one to several pushes away (a third of the longest push to the longest: 5-15 cm in a 0.6 m arena);
   // a target keeps the object's own size plus room for the robot to reach round it from the walls, and an
   // object's width from the others.
-  double min_target = max_push / 3, max_target = max_push;
-  double wall_clearance = largest + 1.5 * catalogue.robot_radius, object_clearance = 2 * largest;
-  std::vector<double> offsets{-0.75, -0.375, 0.0, 0.375, 0.75};      // fractions of each face's offset limit
-  std::vector<double> distances{0.15, 0.3, 0.45, 0.6, 0.75, 0.9};   // fractions of the longest push
-  std::string model_topic = "machine_learning/model", notions_topic = "machine_learning/notions";
-  pnh.param("seed", seed, seed);
-  pnh.param("min_target_distance", min_target, min_target);
-  pnh.param("max_target_distance", max_target, max_target);
-  pnh.param("wall_clearance", wall_clearance, wall_clearance);
-  pnh.param("object_clearance", object_clearance, object_clearance);
-  pnh.param("offsets", offsets, offsets);
-  pnh.param("distances", distances, distances);
-  pnh.param("random_candidates", random_candidates, random_candidates);
-  pnh.param("uncertainty_weight", uncertainty_weight, uncertainty_weight);
-  pnh.param("model_topic", model_topic, model_topic);
-  pnh.param("notions_topic", notions_topic, notions_topic);
-  core::requireInRange("~seed", seed, 0, 2147483647.0);
-  core::requireInRange("~random_candidates", random_candidates, 0, 100000);
-  core::requireInRange("~uncertainty_weight", uncertainty_weight, 0.0, 100.0);
-  core::requireInRange("~min_target_distance", min_target, 0.001, 1.0);
+  const int seed = parameters.get<int>("seed");
+  const double min_target = parameters.get<double>("min_target_distance", max_push / 3);
+  const double max_target = parameters.get<double>("max_target_distance", max_push);
   core::requireInRange("~max_target_distance", max_target, min_target, 1.0);
-  core::requireInRange("~wall_clearance", wall_clearance, 0.0, 1.0);
-  core::requireInRange("~object_clearance", object_clearance, 0.0, 1.0);
-  for (double o : offsets) core::requireInRange("~offsets entry", o, -1, 1);
-  for (double d : distances) core::requireInRange("~distances entry", d, 1e-3, 1);
+  const double wall_clearance = parameters.get<double>("wall_clearance", largest + 1.5 * catalogue.robot_radius);
+  const double object_clearance = parameters.get<double>("object_clearance", 2 * largest);
+  const std::vector<double> offsets = parameters.get<std::vector<double>>("offsets");
+  const std::vector<double> distances = parameters.get<std::vector<double>>("distances");
+  const int random_candidates = parameters.get<int>("random_candidates");
+  const double uncertainty_weight = parameters.get<double>("uncertainty_weight");
+  const std::string model_topic = parameters.get<std::string>("model_topic");
+  const std::string notions_topic = parameters.get<std::string>("notions_topic");
   if (offsets.empty() && distances.empty() && random_candidates == 0) {
     throw core::ValidationError("~offsets, ~distances and ~random_candidates leave no candidate push");
   }

@@ -1,5 +1,7 @@
 #include "xpersif/decision/planner.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
 #include <chrono>
 
@@ -132,27 +134,35 @@ Planner::Planner(ros::NodeHandle nh, ros::NodeHandle private_nh)
 
 Planner::~Planner() { stopLoader(); }
 
+const core::ParameterTable& Planner::parameters() {
+  static const core::ParameterTable table(
+      "planner",
+      {core::textParameter("search_type", "breadth_first",
+                           "the plan search plugin: breadth_first, greedy or another package's (README, Plugins)"),
+       core::namesParameter("components", {"observation", "vision", "manipulation", "relocation"}, 64,
+                            "the components whose contracts are the planning operators"),
+       core::namesParameter("prefer", {"vision"}, 64, "components preferred when operators tie"),
+       core::intParameter("max_depth", 8, 1, 64, "the longest plan, in steps"),
+       core::numberParameter("retry_period", 1.0, 0.01, 60.0, "s of wall time between tries to read missing contracts"),
+       core::textParameter("knowledge_base", "knowledge_base", "namespace of the knowledge base's get_facts"),
+       core::numberParameter("knowledge_base_timeout", 2.0, 0.01, 60.0,
+                             "s of wall time to wait for the knowledge base's facts")});
+  return table;
+}
+
 void Planner::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::vector<std::string> components{"observation", "vision", "manipulation", "relocation"}, prefer{"vision"};
-  int max_depth = 8;
-  double retry_period = 1.0;
-  std::string search_type = "breadth_first";
-  pnh.param("search_type", search_type, search_type);
-  pnh.param("components", components, components);
-  pnh.param("prefer", prefer, prefer);
-  pnh.param("max_depth", max_depth, max_depth);
-  pnh.param("retry_period", retry_period, retry_period);
-  std::string knowledge_base = "knowledge_base";
-  double knowledge_base_timeout = 2.0;
-  pnh.param("knowledge_base", knowledge_base, knowledge_base);
-  pnh.param("knowledge_base_timeout", knowledge_base_timeout, knowledge_base_timeout);
+  const ParameterReader parameters(pnh, Planner::parameters());
+  const std::string search_type = parameters.get<std::string>("search_type");
+  const std::vector<std::string> components = parameters.get<std::vector<std::string>>("components");
+  const std::vector<std::string> prefer = parameters.get<std::vector<std::string>>("prefer");
+  const int max_depth = parameters.get<int>("max_depth");
+  const double retry_period = parameters.get<double>("retry_period");
+  const std::string knowledge_base = parameters.get<std::string>("knowledge_base");
+  const double knowledge_base_timeout = parameters.get<double>("knowledge_base_timeout");
   core::requireIdentifier("~knowledge_base", knowledge_base);
-  core::requireInRange("~knowledge_base_timeout", knowledge_base_timeout, 0.01, 60.0);
   if (components.empty()) throw core::ValidationError("~components is empty; list the components to plan with");
   for (const auto& c : components) core::requireIdentifier("~components entry", c);
-  core::requireInRange("~max_depth", max_depth, 1, 64);
-  core::requireInRange("~retry_period", retry_period, 0.01, 60.0);
   std::shared_ptr<const core::PlanSearch> search = searches_.create("~search_type", search_type);
   ROS_INFO("%s: search %s: %s", name().c_str(), search_type.c_str(), search->description().c_str());
   stopLoader();

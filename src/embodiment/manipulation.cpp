@@ -1,5 +1,7 @@
 #include "xpersif/embodiment/manipulation.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -99,33 +101,48 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       [this](Push::Context& context, PushResult& result) { return push(context, result); });
 }
 
+const core::ParameterTable& Manipulation::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "manipulation",
+        {core::numberParameter("control_rate", 50.0, 1.0, 1000.0, "Hz of simulated time of the push controller"),
+         core::numberParameter("max_linear", 0.1, 1e-3, 1e3, "m/s: the fastest drive (at most twice the wheels' top speed)"),
+         core::numberParameter("max_angular", 2.5, 1e-2, 50.0, "rad/s: the fastest turn"),
+         core::numberParameter("margin", 0.01, 0.0, 0.1, "m kept from walls and other objects when planning a push"),
+         core::numberParameter("observation_max_age", 2.0, 1e-6, 3600.0,
+                               "s: the oldest observation of the object a push starts from"),
+         core::numberParameter("settle_time", 0.3, 0.0, 10.0, "s of simulated time the object is left to settle"),
+         core::derivedParameter(ParameterSpec::Type::Double, "max_push_distance", "A / 4", 1e-6, 100.0,
+                                "m: the longest push accepted"),
+         core::textParameter("observation_topic", "observation/features", "the overhead camera's feature vectors"),
+         core::flagParameter("has_gripper", false, "must stay false: this robot model has no gripper")});
+    own.include(setupCatalogueParameters()).include(LockstepClient::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void Manipulation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
+  const ParameterReader parameters(pnh, Manipulation::parameters());
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
-  double rate = 50, max_linear = 0.1, max_angular = 2.5, margin = 0.01, max_age = 2.0, settle = 0.3;
+  const double rate = parameters.get<double>("control_rate");
+  const double max_linear = parameters.get<double>("max_linear");
+  const double max_angular = parameters.get<double>("max_angular");
+  const double margin = parameters.get<double>("margin");
+  const double max_age = parameters.get<double>("observation_max_age");
+  const double settle = parameters.get<double>("settle_time");
   // The longest push that stays well inside the arena: pushed from the centre, an object ends halfway to the
   // nearest wall (the planner still checks every push against the walls).
-  double max_push_distance = 0.25 * std::min(setup.arena.size_x, setup.arena.size_y);
-  bool has_gripper = false;
-  std::string observation_topic = "observation/features";
-  pnh.param("control_rate", rate, rate);
-  pnh.param("max_linear", max_linear, max_linear);
-  pnh.param("max_angular", max_angular, max_angular);
-  pnh.param("margin", margin, margin);
-  pnh.param("observation_max_age", max_age, max_age);
-  pnh.param("settle_time", settle, settle);
-  pnh.param("max_push_distance", max_push_distance, max_push_distance);
-  pnh.param("observation_topic", observation_topic, observation_topic);
-  pnh.param("has_gripper", has_gripper, has_gripper);
-  if (has_gripper) throw std::runtime_error("~has_gripper is true, but this robot model has no gripper to drive");
-  core::requireInRange("~control_rate", rate, 1.0, 1000.0);
+  const double max_push_distance =
+      parameters.get<double>("max_push_distance", 0.25 * std::min(setup.arena.size_x, setup.arena.size_y));
+  const std::string observation_topic = parameters.get<std::string>("observation_topic");
+  if (parameters.get<bool>("has_gripper")) {
+    throw std::runtime_error("~has_gripper is true, but this robot model has no gripper to drive");
+  }
   core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
-  core::requireInRange("~max_angular", max_angular, 1e-2, 50.0);
-  core::requireInRange("~margin", margin, 0.0, 0.1);
-  core::requirePositive("~observation_max_age", max_age);
-  core::requireInRange("~settle_time", settle, 0.0, 10.0);
-  core::requirePositive("~max_push_distance", max_push_distance);
 
   std::lock_guard<std::mutex> lock(mutex_);
   setup_ = setup;

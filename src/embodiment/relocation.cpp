@@ -1,5 +1,7 @@
 #include "xpersif/embodiment/relocation.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -141,28 +143,38 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       false);
 }
 
+const core::ParameterTable& Relocation::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "relocation",
+        {core::numberParameter("control_rate", 50.0, 1.0, 1000.0, "Hz of simulated time of the drive controller"),
+         core::numberParameter("max_linear", 0.1, 1e-3, 1e3, "m/s: the fastest drive (at most twice the wheels' top speed)"),
+         core::numberParameter("max_angular", 2.5, 1e-2, 50.0, "rad/s: the fastest turn"),
+         core::numberParameter("position_tolerance", 0.005, 1e-4, 0.1, "m: a go_to_pose is done this close"),
+         core::numberParameter("yaw_tolerance", 0.026, 1e-3, 0.5, "rad: a turn is done this close"),
+         core::numberParameter("margin", 0.01, 0.0, 0.1, "m kept from walls and objects by the path planner"),
+         core::numberParameter("obstacle_max_age", 5.0, 1e-6, 3600.0, "s: the oldest observation of the obstacles"),
+         core::textParameter("observation_topic", "observation/features", "the overhead camera's feature vectors")});
+    own.include(setupCatalogueParameters()).include(LockstepClient::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void Relocation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
+  const ParameterReader parameters(pnh, Relocation::parameters());
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
-  double rate = 50, max_linear = 0.1, max_angular = 2.5, position_tolerance = 0.005, yaw_tolerance = 0.026;
-  double margin = 0.01, obstacle_max_age = 5.0;
-  std::string observation_topic = "observation/features";
-  pnh.param("control_rate", rate, rate);
-  pnh.param("max_linear", max_linear, max_linear);
-  pnh.param("max_angular", max_angular, max_angular);
-  pnh.param("position_tolerance", position_tolerance, position_tolerance);
-  pnh.param("yaw_tolerance", yaw_tolerance, yaw_tolerance);
-  pnh.param("margin", margin, margin);
-  pnh.param("obstacle_max_age", obstacle_max_age, obstacle_max_age);
-  pnh.param("observation_topic", observation_topic, observation_topic);
-  core::requireInRange("~control_rate", rate, 1.0, 1000.0);
+  const double rate = parameters.get<double>("control_rate");
+  const double max_linear = parameters.get<double>("max_linear");
+  const double max_angular = parameters.get<double>("max_angular");
+  const double position_tolerance = parameters.get<double>("position_tolerance");
+  const double yaw_tolerance = parameters.get<double>("yaw_tolerance");
+  const double margin = parameters.get<double>("margin");
+  const double obstacle_max_age = parameters.get<double>("obstacle_max_age");
+  const std::string observation_topic = parameters.get<std::string>("observation_topic");
   core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
-  core::requireInRange("~max_angular", max_angular, 1e-2, 50.0);
-  core::requireInRange("~position_tolerance", position_tolerance, 1e-4, 0.1);
-  core::requireInRange("~yaw_tolerance", yaw_tolerance, 1e-3, 0.5);
-  core::requireInRange("~margin", margin, 0.0, 0.1);
-  core::requirePositive("~obstacle_max_age", obstacle_max_age);
 
   std::lock_guard<std::mutex> lock(mutex_);
   setup_ = setup;

@@ -1,5 +1,7 @@
 #include "xpersif/embodiment/robot_model.h"
 
+#include "xpersif/component/parameters.h"
+
 namespace xpersif {
 
 RobotModel::RobotModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -22,15 +24,27 @@ RobotModel::RobotModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
                               });
 }
 
+const core::ParameterTable& RobotModel::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "robot_model",
+        {core::numberParameter("contact_range", 0.003, 0.0, 0.05,
+                               "m: an IR range this short counts as touching (the robot state's contact)"),
+         core::flagParameter("has_gripper", false, "whether the robot state reports a gripper"),
+         core::textParameter("observation_topic", "observation/features",
+                             "the overhead camera's feature vectors (the robot's observed pose)")});
+    own.include(Supervisor::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void RobotModel::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  double contact_range = 0.003;
-  bool has_gripper = false;
-  std::string observation_topic = "observation/features";
-  pnh.param("contact_range", contact_range, contact_range);
-  pnh.param("has_gripper", has_gripper, has_gripper);
-  pnh.param("observation_topic", observation_topic, observation_topic);
-  core::requireInRange("~contact_range", contact_range, 0.0, 0.05);
+  const ParameterReader parameters(pnh, RobotModel::parameters());
+  const double contact_range = parameters.get<double>("contact_range");
+  const bool has_gripper = parameters.get<bool>("has_gripper");
+  const std::string observation_topic = parameters.get<std::string>("observation_topic");
   auto source = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
   {
     std::lock_guard<std::mutex> lock(state_mutex_);

@@ -24,6 +24,7 @@
 #include "xpersif/StartRun.h"
 #include "xpersif/WorldState.h"
 #include "xpersif/component/action_wait.h"
+#include "xpersif/component/parameters.h"
 #include "xpersif/core/motivation.h"
 #include "xpersif/ros/experiment_conversions.h"
 
@@ -149,33 +150,51 @@ LoopModel::LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh)
       });
 }
 
+const core::ParameterTable& LoopModel::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "loop_model",
+        {core::textParameter("pose_source", "observation",
+                             "where the embodiment's commands take the robot's pose from", {"odometry", "observation"}),
+         core::intParameter("retries", 1, 0, 10, "EXECUTION's retries of a failed step"),
+         core::flagParameter("tidy", true, "tidy the arena between experiments as an experimenter would"),
+         core::flagParameter("arrange_at_start", true,
+                             "a new run starts with the objects and the robot where the world file puts them"),
+         core::derivedParameter(ParameterSpec::Type::Double, "tidy_margin",
+                                "c + 3.25 R (SetupCatalogue::wallMargin)", 0.0, INFINITY,
+                                "m: objects closer to a wall are put back (at most half the arena's smaller extent)"),
+         core::derivedParameter(ParameterSpec::Type::Double, "tidy_spacing",
+                                "2 c + 2.25 R (SetupCatalogue::objectSpacing)", 0.0, INFINITY,
+                                "m: objects closer to each other are moved apart (at most the arena's smaller extent)"),
+         core::numberParameter("goal_tolerance", 0.02, 0.005, 0.5,
+                               "m: a goal is reached when the object's centre is this close to the target"),
+         core::intParameter("max_goal_pushes", 5, 1, 50, "pushes a goal may take"),
+         core::numberParameter("learning_timeout", 20.0, 1e-3, 3600.0,
+                               "s of wall time to wait for MACHINELEARNING's model of the latest experiment")});
+    own.include(Supervisor::parameters()).include(LockstepClient::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void LoopModel::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
+  const ParameterReader parameters(pnh, LoopModel::parameters());
   EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
-  std::string pose_source = "observation";
-  int retries = 1, max_goal_pushes = 5;
-  bool tidy = true;
-  // Tidying's margins are derived from the objects, the robot and the arena (SetupCatalogue) unless set.
-  double tidy_margin = -1, goal_tolerance = 0.02, learning_timeout = 20.0;
-  pnh.param("pose_source", pose_source, pose_source);
-  pnh.param("retries", retries, retries);
-  pnh.param("tidy", tidy, tidy);
-  bool arrange = true;
-  pnh.param("arrange_at_start", arrange, arrange);
-  pnh.param("tidy_margin", tidy_margin, tidy_margin);
-  double tidy_spacing = -1;
-  pnh.param("tidy_spacing", tidy_spacing, tidy_spacing);
+  const std::string pose_source = parameters.get<std::string>("pose_source");
+  const int retries = parameters.get<int>("retries");
+  const bool tidy = parameters.get<bool>("tidy");
+  const bool arrange = parameters.get<bool>("arrange_at_start");
+  // Tidying's margins are derived from the objects, the robot and the arena (SetupCatalogue) unless set (-1).
+  const double tidy_margin = parameters.get<double>("tidy_margin", -1.0);
+  const double tidy_spacing = parameters.get<double>("tidy_spacing", -1.0);
   const double arena_half = 0.5 * std::min(setup.arena.size_x, setup.arena.size_y);
   if (tidy_spacing >= 0) core::requireInRange("~tidy_spacing", tidy_spacing, 0.0, 2 * arena_half);
-  pnh.param("goal_tolerance", goal_tolerance, goal_tolerance);
-  pnh.param("max_goal_pushes", max_goal_pushes, max_goal_pushes);
-  pnh.param("learning_timeout", learning_timeout, learning_timeout);
-  core::requireOneOf("~pose_source", pose_source, {"odometry", "observation"});
-  core::requireInRange("~retries", retries, 0, 10);
   if (tidy_margin >= 0) core::requireInRange("~tidy_margin", tidy_margin, 0.0, arena_half);
-  core::requireInRange("~goal_tolerance", goal_tolerance, 0.005, 0.5);
-  core::requireInRange("~max_goal_pushes", max_goal_pushes, 1, 50);
-  core::requirePositive("~learning_timeout", learning_timeout);
+  const double goal_tolerance = parameters.get<double>("goal_tolerance");
+  const int max_goal_pushes = parameters.get<int>("max_goal_pushes");
+  const double learning_timeout = parameters.get<double>("learning_timeout");
   {
     std::lock_guard<std::mutex> lock(mutex_);
     setup_ = setup;

@@ -1,5 +1,7 @@
 #include "xpersif/examples/example_counter.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <pluginlib/class_list_macros.hpp>
 
 #include "xpersif/component/shells.h"
@@ -61,16 +63,22 @@ ExampleCounter::ExampleCounter(ros::NodeHandle nh, ros::NodeHandle private_nh)
       });
 }
 
+const core::ParameterTable& ExampleCounter::parameters() {
+  static const core::ParameterTable table(
+      "example_counter",
+      {core::numberParameter("limit", 1e6, -1e300, 1e300, "the total the command count_to refuses to pass"),
+       core::intParameter("max_values", 1000, 1, 10000000, "values an add call may carry at most"),
+       core::numberParameter("step_period", 0.01, 1e-6, 60.0, "s between count_to's steps")});
+  return table;
+}
+
 void ExampleCounter::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  double limit = 1e6, step_period = 0.01;
-  int max_values = 1000;
-  pnh.param("limit", limit, limit);
-  pnh.param("max_values", max_values, max_values);
-  pnh.param("step_period", step_period, step_period);
-  core::requireFinite("~limit", limit);
-  core::requireInRange("~max_values", max_values, 1, 1e7);
-  core::requireInRange("~step_period", step_period, 1e-6, 60.0);
+  const ParameterReader parameters(pnh, ExampleCounter::parameters());
+  const double limit = parameters.get<double>("limit");
+  const int max_values = parameters.get<int>("max_values");
+  const double step_period = parameters.get<double>("step_period");
+  (void)pnh;
   std::lock_guard<std::mutex> lock(mutex_);
   limit_ = limit;
   max_values_ = max_values;

@@ -36,6 +36,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
@@ -43,6 +44,7 @@
 #include <vector>
 
 #include "xpersif/core/experiment_spec.h"
+#include "xpersif/ros/parameter_catalogue.h"
 #include "xpersif/core/physics_world.h"
 #include "xpersif/core/world_spec.h"
 #include "xpersif/ExperimentProgress.h"
@@ -86,11 +88,22 @@ void checkWorld(const ExperimentSpec& spec) {
   }
 }
 
+/// Each component's declared parameters (README, Parameter reference), by its name in the component lists.
+std::map<std::string, const xpersif::core::ParameterTable*> declaredParameters(const std::vector<std::string>& configs) {
+  std::map<std::string, const xpersif::core::ParameterTable*> declared{
+      {"loop_model", xpersif::declaredParametersOf("xpersif/LoopModelNodelet")}};
+  for (const auto& c : configs) {
+    for (const auto& [name, type] : xpersif::core::componentTypes(c)) declared[name] = xpersif::declaredParametersOf(type);
+  }
+  return declared;
+}
+
 ExperimentSpec load(const std::string& file, const std::vector<std::string>& overrides,
                     const std::vector<std::string>& configs) {
   std::vector<xpersif::core::Override> parsed;
   for (const auto& o : overrides) parsed.push_back(xpersif::core::parseOverride(o));
-  ExperimentSpec spec = xpersif::core::loadExperimentFile(file, parsed, knownComponents(configs));
+  ExperimentSpec spec =
+      xpersif::core::loadExperimentFile(file, parsed, knownComponents(configs), declaredParameters(configs));
   checkWorld(spec);
   return spec;
 }

@@ -1,5 +1,7 @@
 #include "xpersif/perception/feature_extraction.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <std_msgs/UInt64MultiArray.h>
 
 
@@ -12,15 +14,30 @@ FeatureExtraction::FeatureExtraction(ros::NodeHandle nh, ros::NodeHandle private
       [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
+const core::ParameterTable& FeatureExtraction::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "feature_extraction",
+        {core::textParameter("camera", "", "the scene's camera the images come from; required"),
+         core::textParameter("image_topic", "camera/image_raw", "the images to extract features from"),
+         core::textParameter("scene_topic", "xpersim/scene", "XPERSim's scene"),
+         core::flagParameter("report_buffer_address", false,
+                             "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)")});
+    own.include(FeatureExtractionPart::parameters(), "feature_extraction/");
+    return own;
+  }();
+  return table;
+}
+
 void FeatureExtraction::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string camera, image_topic = "camera/image_raw", scene_topic = "xpersim/scene";
-  bool report = false;
-  if (!pnh.getParam("camera", camera)) throw std::runtime_error("~camera is not set; name the scene camera the images come from");
+  const ParameterReader parameters(pnh, FeatureExtraction::parameters());
+  if (!parameters.has("camera")) throw std::runtime_error("~camera is not set; name the scene camera the images come from");
+  const std::string camera = parameters.get<std::string>("camera");
   core::requireIdentifier("~camera", camera);
-  pnh.param("image_topic", image_topic, image_topic);
-  pnh.param("scene_topic", scene_topic, scene_topic);
-  pnh.param("report_buffer_address", report, report);
+  const std::string image_topic = parameters.get<std::string>("image_topic");
+  const std::string scene_topic = parameters.get<std::string>("scene_topic");
+  const bool report = parameters.get<bool>("report_buffer_address");
   extraction_.configure(ros::NodeHandle(pnh, "feature_extraction"));
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -1,5 +1,7 @@
 #include "xpersif/perception/feature_extraction_part.h"
 
+#include "xpersif/component/parameters.h"
+
 #include "xpersif/core/validation.h"
 
 namespace xpersif {
@@ -100,12 +102,24 @@ core::Detections fromFeatureVector(const FeatureVector& features) {
   return d;
 }
 
+const core::ParameterTable& FeatureExtractionPart::parameters() {
+  static const core::ParameterTable table = [] {
+    const core::PerceptionOptions d;
+    return core::ParameterTable(
+        "feature extraction part",
+        {core::numberParameter("min_blob_pixels", d.min_blob_pixels, 1e-6, 1e9,
+                               "part feature_extraction: the smallest blob of an object's colour that counts"),
+         core::numberParameter("max_chroma_tolerance", d.max_chroma_tolerance, 1e-3, 0.5,
+                               "part feature_extraction: how far a pixel's chroma may be from an object's colour")});
+  }();
+  return table;
+}
+
 void FeatureExtractionPart::configure(const ros::NodeHandle& parameters) {
+  const ParameterReader reader(parameters, FeatureExtractionPart::parameters(), "~" + name() + "/");
   core::PerceptionOptions options;
-  parameters.param("min_blob_pixels", options.min_blob_pixels, options.min_blob_pixels);
-  parameters.param("max_chroma_tolerance", options.max_chroma_tolerance, options.max_chroma_tolerance);
-  core::requirePositive(parameters.resolveName("min_blob_pixels"), options.min_blob_pixels);
-  core::requireInRange(parameters.resolveName("max_chroma_tolerance"), options.max_chroma_tolerance, 1e-3, 0.5);
+  options.min_blob_pixels = reader.get<double>("min_blob_pixels");
+  options.max_chroma_tolerance = reader.get<double>("max_chroma_tolerance");
   std::lock_guard<std::mutex> lock(mutex_);
   options_ = options;
   extractor_.reset();

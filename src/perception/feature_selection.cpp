@@ -1,5 +1,7 @@
 #include "xpersif/perception/feature_selection.h"
 
+#include "xpersif/component/parameters.h"
+
 namespace xpersif {
 
 namespace {
@@ -48,11 +50,22 @@ FeatureSelection::FeatureSelection(ros::NodeHandle nh, ros::NodeHandle private_n
       false);
 }
 
+const core::ParameterTable& FeatureSelection::parameters() {
+  static const core::ParameterTable table(
+      "feature_selection",
+      {core::namesParameter("features", core::FeatureSelection::defaultNames(), 64,
+                            "the features VISION computes at first (names from ~available)"),
+       core::outputParameter(core::ParameterSpec::Type::StringList, "available",
+                             "the features one can choose, \"name [unit]: description\"")});
+  return table;
+}
+
 void FeatureSelection::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::vector<std::string> names;
+  const ParameterReader parameters(pnh, FeatureSelection::parameters());
   core::FeatureSelection selection;
-  if (pnh.getParam("features", names)) selection.set(names);  // throws with the unknown name: configure fails
+  // An unknown name throws with the list of known ones: configure fails.
+  if (parameters.has("features")) selection.set(parameters.get<std::vector<std::string>>("features"));
   std::vector<std::string> available;
   for (const auto& f : core::availableFeatures()) available.push_back(f.name + " [" + f.unit + "]: " + f.description);
   pnh.setParam("available", available);

@@ -1,5 +1,7 @@
 #include "xpersif/perception/observation.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <cmath>
 #include <std_msgs/UInt64MultiArray.h>
 
@@ -18,15 +20,28 @@ Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
+const core::ParameterTable& Observation::parameters() {
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "observation",
+        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the overhead camera is rendered"),
+         core::numberParameter("max_wall_rate", 30.0, 0.1, 1000.0, "realtime and fast modes: at most this many frames per wall second"),
+         core::flagParameter("report_buffer_address", false,
+                             "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)"),
+         core::textParameter("camera/name", "overhead", "part camera: the scene's camera to render"),
+         core::textParameter("camera/scene_topic", "xpersim/scene", "part camera: XPERSim's scene")});
+    own.include(FeatureExtractionPart::parameters(), "feature_extraction/").include(LockstepClient::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void Observation::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  double rate = 10.0, max_wall_rate = 30.0;
-  bool report = false;
-  pnh.param("rate", rate, rate);
-  pnh.param("max_wall_rate", max_wall_rate, max_wall_rate);
-  pnh.param("report_buffer_address", report, report);
-  core::requireInRange("~rate", rate, 0.1, 1000.0);
-  core::requireInRange("~max_wall_rate", max_wall_rate, 0.1, 1000.0);
+  const ParameterReader parameters(pnh, Observation::parameters());
+  const double rate = parameters.get<double>("rate");
+  const double max_wall_rate = parameters.get<double>("max_wall_rate");
+  const bool report = parameters.get<bool>("report_buffer_address");
   {
     std::lock_guard<std::mutex> lock(mutex_);
     rate_ = rate;

@@ -1,5 +1,7 @@
 #include "xpersif/perception/perception.h"
 
+#include "xpersif/component/parameters.h"
+
 
 namespace xpersif {
 
@@ -38,13 +40,30 @@ Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
       [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
+const core::ParameterTable& Perception::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
+        "perception",
+        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the robot camera is rendered"),
+         core::numberParameter("max_wall_rate", 30.0, 0.1, 1000.0, "realtime and fast modes: at most this many frames per wall second"),
+         core::textParameter("ir_ring/topic", "ir", "part ir_ring: the IR ranges' topic"),
+         core::numberParameter("ir_ring/timeout", 2.0, 1e-6, 3600.0, "part ir_ring: s of ROS time without ranges before it is a problem"),
+         core::textParameter("odometry/topic", "odom", "part odometry: the odometry's topic"),
+         core::numberParameter("odometry/timeout", 2.0, 1e-6, 3600.0, "part odometry: s of ROS time without odometry before it is a problem"),
+         core::textParameter("camera/name", "robot_camera", "part camera: the scene's camera to render"),
+         core::textParameter("camera/scene_topic", "xpersim/scene", "part camera: XPERSim's scene")});
+    own.include(FeatureExtractionPart::parameters(), "feature_extraction/").include(LockstepClient::parameters());
+    return own;
+  }();
+  return table;
+}
+
 void Perception::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  double rate = 10.0, max_wall_rate = 30.0;
-  pnh.param("rate", rate, rate);
-  pnh.param("max_wall_rate", max_wall_rate, max_wall_rate);
-  core::requireInRange("~rate", rate, 0.1, 1000.0);
-  core::requireInRange("~max_wall_rate", max_wall_rate, 0.1, 1000.0);
+  const ParameterReader parameters(pnh, Perception::parameters());
+  const double rate = parameters.get<double>("rate");
+  const double max_wall_rate = parameters.get<double>("max_wall_rate");
   {
     std::lock_guard<std::mutex> lock(mutex_);
     rate_ = rate;

@@ -1,5 +1,7 @@
 #include "xpersif/perception/vision.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <std_msgs/UInt64MultiArray.h>
 
 #include "xpersif/embodiment/embodiment_setup.h"
@@ -19,15 +21,25 @@ Vision::Vision(ros::NodeHandle nh, ros::NodeHandle private_nh)
       [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
 }
 
+const core::ParameterTable& Vision::parameters() {
+  static const core::ParameterTable table(
+      "vision",
+      {core::textParameter("image_topic", "observation/image_raw", "the images VISION measures in"),
+       core::textParameter("features_topic", "observation/features", "FEATUREEXTRACTION's detections in those images"),
+       core::textParameter("selection_topic", "feature_selection/selection",
+                           "FEATURESELECTION's choice of features (until one arrives, the defaults)"),
+       core::flagParameter("report_buffer_address", false,
+                           "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)")});
+  return table;
+}
+
 void Vision::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string image_topic = "observation/image_raw", features_topic = "observation/features";
-  std::string selection_topic = "feature_selection/selection";
-  bool report = false;
-  pnh.param("image_topic", image_topic, image_topic);
-  pnh.param("features_topic", features_topic, features_topic);
-  pnh.param("selection_topic", selection_topic, selection_topic);
-  pnh.param("report_buffer_address", report, report);
+  const ParameterReader parameters(pnh, Vision::parameters());
+  const std::string image_topic = parameters.get<std::string>("image_topic");
+  const std::string features_topic = parameters.get<std::string>("features_topic");
+  const std::string selection_topic = parameters.get<std::string>("selection_topic");
+  const bool report = parameters.get<bool>("report_buffer_address");
   const EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
   std::lock_guard<std::mutex> lock(mutex_);
   image_topic_ = image_topic;

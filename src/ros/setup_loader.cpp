@@ -18,8 +18,25 @@ core::SetupCatalogue restricted(core::SetupCatalogue catalogue, const ros::NodeH
 }
 }  // namespace
 
+const core::ParameterTable& setupCatalogueParameters() {
+  static const core::ParameterTable table(
+      "set-up catalogue",
+      {core::namesParameter("objects", {}, 256,
+                            "the objects of the scene this component considers (default: every object of the "
+                            "scene); a name the world lacks is a configure error"),
+       core::textParameter("world", "",
+                           "read the objects from this world file instead of XPERSim's scene (no simulator: a bag "
+                           "being replayed)"),
+       core::textParameter("scene_service", "xpersim/get_scene",
+                           "XPERSim's get_scene (also found in a parent namespace)"),
+       core::numberParameter("scene_timeout", 30.0, 0.001, 3600.0,
+                             "s of wall time to wait for the scene (also found in a parent namespace)")});
+  return table;
+}
+
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
-  std::string service = "xpersim/get_scene", key, world_file;
+  const core::ParameterTable& declared = setupCatalogueParameters();
+  std::string service = std::get<std::string>(declared.at("scene_service").default_value), key, world_file;
   // No simulator (a bag being replayed): the scene XPERSim would build from the same world file.
   if (private_nh.getParam("world", world_file)) {
     try {
@@ -29,10 +46,10 @@ core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::No
       throw std::runtime_error(std::string("~world: ") + e.what());
     }
   }
-  double timeout = 30.0;
+  double timeout = std::get<double>(declared.at("scene_timeout").default_value);
   if (private_nh.searchParam("scene_service", key)) private_nh.getParam(key, service);
   if (private_nh.searchParam("scene_timeout", key)) private_nh.getParam(key, timeout);
-  core::requirePositive("scene_timeout", timeout);
+  core::throwIfInvalid(core::checkParameter(declared.at("scene_timeout"), timeout));
   service = nh.resolveName(service);
   if (!ros::service::waitForService(service, ros::Duration(timeout))) {
     throw std::runtime_error("no scene: XPERSim's " + service + " did not appear within " +

@@ -1,5 +1,7 @@
 #include "xpersif/traces/snapshot_recorder.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <rosbag/bag.h>
 #include <std_msgs/String.h>
 #include <std_srvs/Trigger.h>
@@ -29,23 +31,34 @@ SnapshotRecorder::SnapshotRecorder(ros::NodeHandle nh, ros::NodeHandle private_n
 
 SnapshotRecorder::~SnapshotRecorder() { stopWorker(); }
 
+const core::ParameterTable& SnapshotRecorder::parameters() {
+  static const core::ParameterTable table(
+      "snapshot_recorder",
+      {core::namesParameter("topics",
+                            {"/tf", "/xpersif/knowledge_base/experiments", "/xpersif/motivation/motivation",
+                             "/xpersif/vision/features", "/xpersif/observation/features",
+                             "/xpersif/machine_learning/notions"},
+                            256, "the topics kept in the ring buffer"),
+       core::numberParameter("seconds", 10.0, 1e-3, 86400.0, "s of simulated time kept before a surprise"),
+       core::numberParameter("max_bytes", 200.0 * 1024 * 1024, 1024.0, 1e12, "bytes the ring buffer holds at most"),
+       core::numberParameter("threshold", 0.05, -1e9, 1e9, "m: a surprise above this writes a snapshot"),
+       core::derivedParameter(core::ParameterSpec::Type::Double, "min_interval", "~seconds", 0.0, 1e9,
+                              "s of simulated time between two snapshots"),
+       core::textParameter("run_dir", ".", "the directory the snapshots are written to"),
+       core::textParameter("motivation_topic", "/xpersif/motivation/motivation", "MOTIVATION's surprise")});
+  return table;
+}
+
 void SnapshotRecorder::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::vector<std::string> topics{"/tf", "/xpersif/knowledge_base/experiments", "/xpersif/motivation/motivation",
-                                  "/xpersif/vision/features", "/xpersif/observation/features",
-                                  "/xpersif/machine_learning/notions"};
-  pnh.getParam("topics", topics);
-  core::requireMaxSize("~topics", topics.size(), 256);
-  double seconds = pnh.param("seconds", 10.0);
-  double max_bytes = pnh.param("max_bytes", 200.0 * 1024 * 1024);
-  double threshold = pnh.param("threshold", 0.05);
-  double min_interval = pnh.param("min_interval", seconds);
-  std::string run_dir = pnh.param<std::string>("run_dir", ".");
-  std::string motivation_topic = pnh.param<std::string>("motivation_topic", "/xpersif/motivation/motivation");
-  if (!(seconds > 0)) throw core::ValidationError("~seconds must be > 0, not " + std::to_string(seconds));
-  if (!(max_bytes >= 1024)) throw core::ValidationError("~max_bytes must be >= 1024, not " + std::to_string(max_bytes));
-  if (!std::isfinite(threshold)) throw core::ValidationError("~threshold must be a finite number");
-  if (!(min_interval >= 0)) throw core::ValidationError("~min_interval must be >= 0");
+  const ParameterReader parameters(pnh, SnapshotRecorder::parameters());
+  const std::vector<std::string> topics = parameters.get<std::vector<std::string>>("topics");
+  const double seconds = parameters.get<double>("seconds");
+  const double max_bytes = parameters.get<double>("max_bytes");
+  const double threshold = parameters.get<double>("threshold");
+  const double min_interval = parameters.get<double>("min_interval", seconds);
+  const std::string run_dir = parameters.get<std::string>("run_dir");
+  const std::string motivation_topic = parameters.get<std::string>("motivation_topic");
   std::error_code ec;
   fs::create_directories(run_dir, ec);
   if (!fs::is_directory(run_dir, ec)) throw core::ValidationError("~run_dir '" + run_dir + "' cannot be created");

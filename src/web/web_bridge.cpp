@@ -1,5 +1,7 @@
 #include "xpersif/web/web_bridge.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <ros/package.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
@@ -139,23 +141,24 @@ struct WebBridge::Impl {
 
   // =====================================================================================================
   void configure(ros::NodeHandle& pnh, ros::NodeHandle& nh) {
-    std::string new_address = pnh.param<std::string>("address", "127.0.0.1");
-    int new_port = pnh.param("port", 8765);
-    std::string new_ns = pnh.param<std::string>("ns", nh.getNamespace());
+    const ParameterReader parameters(pnh, WebBridge::parameters());
+    const std::string new_address = parameters.get<std::string>("address");
+    const int new_port = parameters.get<int>("port");
+    std::string new_ns = parameters.get<std::string>("ns", nh.getNamespace());
     core::WebClientLimits l;
-    l.default_rate = pnh.param("rate", 30.0);
-    l.max_rate = pnh.param("max_rate", 1000.0);
-    const double window = pnh.param("send_window", 262144.0);
-    const double sndbuf = pnh.param("socket_send_buffer", 65536.0);
-    l.stall_timeout = pnh.param("stall_timeout", 10.0);
-    const int new_max_clients = pnh.param("max_clients", 128);
-    const double max_message = pnh.param("max_client_message", 4096.0);
-    l.client_messages_per_second = pnh.param("client_messages_per_second", 20.0);
-    const int new_curve = pnh.param("curve_points", 2000);
-    const bool new_allow = pnh.param("allow_commands", false);
-    std::string new_token = pnh.param<std::string>("token", "");
-    std::string root = pnh.param<std::string>("web_root", ros::package::getPath("xpersif") + "/web");
-    std::string progress_topic = pnh.param<std::string>("experiment_progress_topic", "/experiment/progress");
+    l.default_rate = parameters.get<double>("rate");
+    l.max_rate = parameters.get<double>("max_rate");
+    const double window = parameters.get<double>("send_window");
+    const double sndbuf = parameters.get<double>("socket_send_buffer");
+    l.stall_timeout = parameters.get<double>("stall_timeout");
+    const int new_max_clients = parameters.get<int>("max_clients");
+    const double max_message = parameters.get<double>("max_client_message");
+    l.client_messages_per_second = parameters.get<double>("client_messages_per_second");
+    const int new_curve = parameters.get<int>("curve_points");
+    const bool new_allow = parameters.get<bool>("allow_commands");
+    const std::string new_token = parameters.get<std::string>("token");
+    const std::string root = parameters.get<std::string>("web_root", ros::package::getPath("xpersif") + "/web");
+    const std::string progress_topic = parameters.get<std::string>("experiment_progress_topic");
 
     boost::system::error_code ec;
     boost::asio::ip::make_address(new_address, ec);
@@ -819,6 +822,32 @@ WebBridge::WebBridge(ros::NodeHandle nh, ros::NodeHandle private_nh)
 WebBridge::~WebBridge() {
   impl_->unsubscribe();
   impl_->stop();
+}
+
+const core::ParameterTable& WebBridge::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table(
+      "web_bridge",
+      {core::textParameter("address", "127.0.0.1", "the IP address the WebSocket and HTTP server binds"),
+       core::intParameter("port", 8765, 0, 65535, "its port (0: any free one)"),
+       core::derivedParameter(ParameterSpec::Type::String, "ns", "the component's namespace", 0, INFINITY,
+                              "the namespace of the system it shows (its XPERSim, LOOPMODEL, ...)"),
+       core::numberParameter("rate", 30.0, 0.0, 10000.0, "Hz: a client's default frame rate (at most ~max_rate)"),
+       core::numberParameter("max_rate", 1000.0, 1.0, 10000.0, "Hz: the highest frame rate a client may ask for"),
+       core::numberParameter("send_window", 262144.0, 1024.0, 256.0 * 1024 * 1024,
+                             "bytes queued per client before frames are dropped for it"),
+       core::numberParameter("socket_send_buffer", 65536.0, 4096.0, 64.0 * 1024 * 1024, "bytes of each socket's send buffer"),
+       core::numberParameter("stall_timeout", 10.0, 0.1, 3600.0, "s of wall time a client may not read before it is closed"),
+       core::intParameter("max_clients", 128, 1, 10000, "clients at once"),
+       core::numberParameter("max_client_message", 4096.0, 64.0, 1024.0 * 1024, "bytes of a client's message at most"),
+       core::numberParameter("client_messages_per_second", 20.0, 0.1, 10000.0, "a client's messages per second at most"),
+       core::intParameter("curve_points", 2000, 1, 1000000, "points of the learning curve kept for new clients"),
+       core::flagParameter("allow_commands", false, "let clients that know ~token pause, resume and confirm the loop"),
+       core::textParameter("token", "", "the secret ~allow_commands asks for (at least 8 characters)"),
+       core::derivedParameter(ParameterSpec::Type::String, "web_root", "the package's web/", 0, INFINITY,
+                              "the directory of the page and its npm modules"),
+       core::textParameter("experiment_progress_topic", "/experiment/progress", "the experiment runner's progress")});
+  return table;
 }
 
 void WebBridge::onConfigure() { impl_->configure(privateNodeHandle(), nodeHandle()); }

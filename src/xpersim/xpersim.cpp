@@ -1,5 +1,7 @@
 #include "xpersif/xpersim/xpersim.h"
 
+#include "xpersif/component/parameters.h"
+
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
 #include <rosgraph_msgs/Clock.h>
@@ -69,7 +71,7 @@ const char* toString(XPerSim::ClockMode mode) {
 
 XPerSim::XPerSim(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/XPerSimNodelet") {
-  privateNodeHandle().param("allow_fault_injection", allow_fault_injection_, false);
+  allow_fault_injection_ = ParameterReader(privateNodeHandle(), parameters()).get<bool>("allow_fault_injection");
   declareOperations();
 }
 
@@ -317,38 +319,54 @@ void XPerSim::declareOperations() {
   }
 }
 
+const core::ParameterTable& XPerSim::parameters() {
+  using core::ParameterSpec;
+  static const core::ParameterTable table(
+      "xpersim",
+      {core::textParameter("world", "", "path of the world file (README, Writing a world); required"),
+       core::textParameter("clock_mode", "realtime",
+                           "how simulated time advances: at ~real_time_factor × wall time, as fast as possible, or "
+                           "one control tick at a time when every participant is done (README, Lockstep)",
+                           {"realtime", "fast", "lockstep"}),
+       core::numberParameter("real_time_factor", 1.0, 0.01, 100.0, "realtime mode: simulated seconds per wall second"),
+       core::numberParameter("tf_rate", 1000.0, 1.0, 10000.0, "Hz of simulated time for /tf and /clock (realtime, fast)"),
+       core::numberParameter("sensor_rate", 50.0, 0.1, 1000.0, "Hz of simulated time for odom, ir and joint_states"),
+       core::numberParameter("max_frame_rate", 1000.0, 1.0, 100000.0,
+                             "fast mode: at most this many /tf + /clock frames per wall second"),
+       core::flagParameter("start_paused", false, "start with the physics paused (~resume starts it)"),
+       core::numberParameter("tick_period", 0.02, 1e-4, 1.0,
+                             "lockstep: s of simulated time per control tick (rounded to whole physics steps)"),
+       core::numberParameter("participant_timeout", 10.0, 0.01, 3600.0,
+                             "lockstep: s of wall time a participant may owe a report before it is dropped"),
+       core::numberParameter("idle_period", 0.05, 1e-3, 10.0,
+                             "lockstep: s of wall time without anyone wanting time before an idle tick (clock on, "
+                             "physics still)"),
+       core::textParameter("trace_file", "", "debug: append every stepped tick's command and poses to this file"),
+       core::derivedParameter(ParameterSpec::Type::Int, "seed", "the world file's physics.seed", 0, 2147483647,
+                              "the run's seed for what the simulator draws at random (frictions redrawn per push)"),
+       core::flagParameter("allow_fault_injection", false, "test hook: offer ~inject_fault")});
+  return table;
+}
+
 void XPerSim::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
-  std::string world_file, mode = "realtime";
-  double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0, max_frame_rate = 1000.0;
-  double tick_period = 0.02, participant_timeout = 10.0;
-  bool start_paused = false;
-  if (!pnh.getParam("world", world_file)) throw std::runtime_error("~world is not set; give the path of a world file");
-  pnh.param("clock_mode", mode, mode);
-  pnh.param("real_time_factor", real_time_factor, real_time_factor);
-  pnh.param("tf_rate", tf_rate, tf_rate);
-  pnh.param("sensor_rate", sensor_rate, sensor_rate);
-  pnh.param("max_frame_rate", max_frame_rate, max_frame_rate);
-  pnh.param("start_paused", start_paused, start_paused);
-  pnh.param("tick_period", tick_period, tick_period);
-  pnh.param("participant_timeout", participant_timeout, participant_timeout);
-  double idle_period = 0.05;
-  pnh.param("idle_period", idle_period, idle_period);
-  std::string trace_file;
-  pnh.param("trace_file", trace_file, trace_file);
-  core::requireInRange("~idle_period", idle_period, 1e-3, 10.0);
-  core::requireInRange("~tick_period", tick_period, 1e-4, 1.0);
-  core::requireInRange("~participant_timeout", participant_timeout, 0.01, 3600.0);
-  core::requireOneOf("~clock_mode", mode, {"realtime", "fast", "lockstep"});
-  core::requireInRange("~real_time_factor", real_time_factor, 0.01, 100.0);
-  core::requireInRange("~tf_rate", tf_rate, 1.0, 10000.0);
-  core::requireInRange("~sensor_rate", sensor_rate, 0.1, 1000.0);
-  core::requireInRange("~max_frame_rate", max_frame_rate, 1.0, 100000.0);
+  const ParameterReader parameters(privateNodeHandle(), XPerSim::parameters());
+  if (!parameters.has("world")) throw std::runtime_error("~world is not set; give the path of a world file");
+  const std::string world_file = parameters.get<std::string>("world");
+  const std::string mode = parameters.get<std::string>("clock_mode");
+  const double real_time_factor = parameters.get<double>("real_time_factor");
+  const double tf_rate = parameters.get<double>("tf_rate");
+  const double sensor_rate = parameters.get<double>("sensor_rate");
+  const double max_frame_rate = parameters.get<double>("max_frame_rate");
+  const bool start_paused = parameters.get<bool>("start_paused");
+  const double tick_period = parameters.get<double>("tick_period");
+  const double participant_timeout = parameters.get<double>("participant_timeout");
+  const double idle_period = parameters.get<double>("idle_period");
+  const std::string trace_file = parameters.get<std::string>("trace_file");
   // The run's seed, for what the simulator draws at random (objects' frictions redrawn per contact episode);
   // without it, the world file's physics.seed.
-  int seed = -1;
-  const bool has_seed = pnh.getParam("seed", seed);
-  if (has_seed) core::requireInRange("~seed", seed, 0, 2147483647);
+  const bool has_seed = parameters.has("seed");
+  const int seed = parameters.get<int>("seed", -1);
   // Built completely before it replaces anything: a bad world file leaves the old world running.
   auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(world_file));
   if (has_seed) world->setRedrawSeed(static_cast<std::uint64_t>(seed));

@@ -353,6 +353,25 @@ TEST_F(ComponentModel, AggregatePartThatFailsToConfigurePutsTheAggregateInErrorN
   EXPECT_TRUE(transition("/statistics", "activate").success);
 }
 
+TEST_F(ComponentModel, AParameterOfTheWrongTypeOrOutOfItsDeclaredRangeFailsConfigureNamingIt) {
+  // NodeHandle::param would fall back on the default without a word; the declaration says what is wrong.
+  ensureActive("/counter");
+  ASSERT_TRUE(transition("/counter", "deactivate").success);
+  ros::param::set("/counter/max_values", std::string("ten"));
+  auto r = transition("/counter", "configure");
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.message.find("~max_values (/counter/max_values) is set but is not of type int"), std::string::npos)
+      << r.message;
+  ros::param::set("/counter/max_values", 0);
+  r = transition("/counter", "configure");
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.message.find("~max_values is 0; it must lie in [1, 1e+07]"), std::string::npos) << r.message;
+  ros::param::set("/counter/max_values", 10);
+  r = transition("/counter", "configure");
+  EXPECT_TRUE(r.success) << "configure recovers: " << r.message;
+  EXPECT_TRUE(transition("/counter", "activate").success);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_component_model");

@@ -215,3 +215,37 @@ TEST_F(ExperimentFileTest, TheFileAsRunReadsBackTheSame) {
 }
 
 }  // namespace
+
+TEST_F(ExperimentFileTest, ComponentParametersAreCheckedAgainstTheirDeclarations) {
+  using namespace xpersif::core;
+  const ParameterTable xpersim("xpersim", {numberParameter("tick_period", 0.02, 1e-4, 1.0, "s per tick"),
+                                           textParameter("clock_mode", "realtime", "how", {"realtime", "lockstep"}),
+                                           outputParameter(ParameterSpec::Type::StringList, "available", "")});
+  const std::map<std::string, const ParameterTable*> declared{{"xpersim", &xpersim}};
+  auto errorWith = [&](const std::string& parameters) {
+    const std::string file = write(valid("parameters:\n  xpersim: " + parameters + "\n"));
+    try {
+      loadExperimentFile(file, {}, {"xpersim", "machine_learning"}, declared);
+    } catch (const ExperimentFileError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(errorWith("{tick_period: 0.04, clock_mode: lockstep}"), "accepted");
+  std::string why = errorWith("{tick_perod: 0.04}");
+  EXPECT_NE(why.find("parameters.xpersim.tick_perod is not a parameter of xpersim: ~tick_perod (did you mean "
+                     "~tick_period?) is not declared"),
+            std::string::npos)
+      << why;
+  why = errorWith("{tick_period: fast}");
+  EXPECT_NE(why.find("parameters.xpersim.tick_period must be of type double"), std::string::npos) << why;
+  why = errorWith("{tick_period: 5}");
+  EXPECT_NE(why.find("parameters.xpersim.tick_period is 5; it must lie in [0.0001, 1]"), std::string::npos) << why;
+  why = errorWith("{clock_mode: slow}");
+  EXPECT_NE(why.find("parameters.xpersim.clock_mode is 'slow'; it must be one of"), std::string::npos) << why;
+  why = errorWith("{available: [a]}");
+  EXPECT_NE(why.find("is set by xpersim itself"), std::string::npos) << why;
+  // A component without declarations (here machine_learning) is not checked further.
+  const std::string file = write(valid("parameters:\n  machine_learning: {anything: 1}\n"));
+  EXPECT_NO_THROW(loadExperimentFile(file, {}, {"xpersim", "machine_learning"}, declared));
+}

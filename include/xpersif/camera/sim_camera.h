@@ -5,9 +5,8 @@
  *        simulated time. Images go out as shared pointers, so nodelets in the same manager receive them
  *        without a copy.
  *
- * Parameters (configure): `~camera` (a camera of the scene, e.g. overhead or robot_camera; required),
- * `~rate` (Hz, default 30), `~scene_topic` (latched scene, default xpersim/scene, resolved in the component's namespace),
- * `~report_buffer_address` (default false; publishes `~buffer_address` for the zero-copy test).
+ * Parameters: SimCamera::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  * Publishes `~image_raw` (sensor_msgs/Image, bgr8) and `~camera_info`.
  */
 #pragma once
@@ -24,6 +23,10 @@ namespace xpersif {
 
 class SimCamera : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   SimCamera(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -17,6 +17,8 @@
  */
 #pragma once
 
+#include "xpersif/core/parameters.h"
+
 #include <ros/ros.h>
 #include <std_msgs/UInt64.h>
 
@@ -48,6 +50,8 @@ class ExperimentFollower {
     /// From `~restore`, `~restore_timeout`, `~experiments_topic`, `~run_topic`, `~knowledge_base` (throws
     /// with the parameter's name for a bad value).
     static Options fromParameters(const ros::NodeHandle& private_nh, const std::string& who);
+    /// The parameters fromParameters reads, for the tables of the components that follow experiments.
+    static const core::ParameterTable& parameters();
   };
   /// Replace all state by that of @p run_id, built from @p records (the run's records in seq order).
   using Reset = std::function<void(std::uint64_t run_id, const std::vector<ExperimentRecord>& records)>;

@@ -26,10 +26,8 @@
  * time (and before get_calls and get_facts answer), so the loop's many calls cost one commit each period and a
  * slow disk never holds a component up (it only publishes). Calls that arrive while the KB is down are lost.
  *
- * Parameters (configure): `~database` (default `$ROS_HOME/xpersif/knowledge.db`, ROS_HOME defaulting to
- * ~/.ros; missing directories are created; a file that is not an XPERSIF knowledge base fails the configure
- * with the reason), `~model_topic`, `~notions_topic`, `~events_topic`, `~event_flush_period` (s, 0.2, 0.01..10),
- * `~max_pending_calls` (10000: beyond it the oldest buffered calls are dropped with a warning).
+ * Parameters: KnowledgeBaseComponent::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  *
  * Not kept: the record's `design` is published with the record but not stored (the core schema has no column
  * for it), so get_experiments returns it empty.
@@ -62,6 +60,10 @@ namespace xpersif {
 
 class KnowledgeBaseComponent : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
   /// The default database file: $ROS_HOME (or ~/.ros) /xpersif/knowledge.db.

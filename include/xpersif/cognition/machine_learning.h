@@ -22,14 +22,8 @@
  * Operation `predict` (Predict): the predicted dx, dy, dyaw (mean and std) of a push of an object with the
  * given features, and how many samples the model has.
  *
- * Parameters (configure): `~learner_type` (random_forest; any class declared for core::PushModel, e.g.
- * gaussian_process; an undeclared one fails configure with the list of declared classes), `~learner_options`
- * (dict of numbers, the learner's own options, e.g. {length_scale: 1.5} for gaussian_process),
- * `~features` ([hue, size]), `~feature_scales` (dict, default {hue: 30, size: 0.01}),
- * `~one_hot_identity` (true), `~objects` (every object of the scene), `~seed` (1),
- * `~ensemble_size` (8), `~trees_per_member` (16) (random_forest only: its learner_options), `~restore` (true), `~restore_timeout` (30 s),
- * `~experiments_topic` (knowledge_base/experiments), `~run_topic` (knowledge_base/run), `~knowledge_base`
- * (knowledge_base: the namespace of its operations).
+ * Parameters: MachineLearning::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  */
 #pragma once
 
@@ -48,6 +42,10 @@ namespace xpersif {
 
 class MachineLearning : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~MachineLearning() override;
 

@@ -18,6 +18,8 @@
  */
 #pragma once
 
+#include "xpersif/core/parameters.h"
+
 #include <map>
 #include <memory>
 #include <mutex>
@@ -35,6 +37,8 @@ class SurprisePart : public ComponentPart {
  public:
   SurprisePart() : ComponentPart("surprise") {}
   void configure(const ros::NodeHandle& parameters) override;
+  /// ~surprise/yaw_length.
+  static const core::ParameterTable& parameters();
   /// The surprise of a done record with a prediction; nothing for others.
   std::optional<core::Surprise> score(const ExperimentRecord& record) const;
   /// ~surprise/yaw_length's default: the objects' mean half-size (set before configure).
@@ -48,6 +52,8 @@ class SurprisePart : public ComponentPart {
 class CuriosityPart : public ComponentPart {
  public:
   CuriosityPart() : ComponentPart("curiosity") {}
+  /// ~curiosity/offset_bins, window, min_visits, measure.
+  static const core::ParameterTable& parameters();
   /// The objects the robot may push (set by the aggregate from `~objects` before configure).
   void setObjects(std::vector<std::string> objects, std::map<std::string, core::Footprint> footprints) {
     objects_ = std::move(objects);
@@ -72,6 +78,10 @@ class CuriosityPart : public ComponentPart {
 
 class MotivationComponent : public AggregateComponent {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   MotivationComponent(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~MotivationComponent() override;
 

@@ -13,8 +13,8 @@
  * One implementation class runs both as a nodelet and as a node: the class takes (nh, private_nh) and
  * the shells in shells.h construct it, call start(), and call halt() before destroying it.
  *
- * Parameters read by the base: `~heartbeat_rate` (Hz, default 5), `~autostart` (bool, default false:
- * configure and activate right after start, for use without a supervisor).
+ * Parameters: Component::baseParameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  */
 #pragma once
 
@@ -38,6 +38,7 @@
 #include "xpersif/component/events.h"
 #include "xpersif/core/contract.h"
 #include "xpersif/core/lifecycle.h"
+#include "xpersif/core/parameters.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif {
@@ -70,6 +71,9 @@ class Component {
   LifecycleState state() const { return lifecycle_.state(); }
   std::vector<core::Contract> contracts() const;
 
+  /// The parameters every component reads: ~heartbeat_rate, ~autostart.
+  static const core::ParameterTable& baseParameters();
+
  protected:
   /// Read parameters and allocate; throw (with a sentence) to fail into ERROR. Runs on every configure.
   virtual void onConfigure() {}
@@ -77,6 +81,10 @@ class Component {
   /// Running commands have already been stopped (ABORTED) when this runs.
   virtual void onDeactivate() {}
   virtual void onShutdown() {}
+  /// The component's declared parameters (its own and its parts'), or nullptr when it declares none. After a
+  /// successful configure, parameters set under ~ that neither this table nor baseParameters() declares are
+  /// warned about (a misspelt name is otherwise silently ignored).
+  virtual const core::ParameterTable* declaredParameters() const { return nullptr; }
   /// Add parts or supervised components to a status message and lower its health. Heartbeat rate.
   virtual void fillStatus(ComponentStatus& status) { (void)status; }
 
@@ -119,6 +127,7 @@ class Component {
   bool onGetState(GetState::Response& response);
   bool onGetContracts(GetContracts::Request& request, GetContracts::Response& response);
   void stopCommands(const std::string& reason);
+  void warnUndeclaredParameters();
   /// State, health and last error; with @p with_details also running commands and fillStatus().
   ComponentStatus makeStatus(bool with_details);
 

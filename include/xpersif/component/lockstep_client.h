@@ -18,6 +18,8 @@
  */
 #pragma once
 
+#include "xpersif/core/parameters.h"
+
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
@@ -37,6 +39,9 @@ namespace xpersif {
 
 class LockstepClient {
  public:
+  /// ~lockstep_xpersim (also found in a parent namespace): the XPERSim whose clock to join.
+  static const core::ParameterTable& parameters();
+
   struct Tick {
     std::uint64_t tick = 0;
     std::uint8_t phase = LockstepTick::ACT;

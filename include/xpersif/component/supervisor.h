@@ -11,7 +11,9 @@
  * reported lost on `~events` and in `~status`; with `~restart` set, it is loaded and started again once
  * its manager answers again (a respawned manager, for instance).
  *
- * Parameters, read on configure:
+ * Parameters: Supervisor::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
+ * The list, e.g.:
  * @code
  * components:                      # started in this order, exited in the reverse order
  *   - name: counter                # resolved in the supervisor's namespace
@@ -19,10 +21,6 @@
  *     manager: loop_manager        # resolved in the supervisor's namespace
  *     activate: true               # default true; false leaves it INACTIVE
  *     params: {limit: 100.0}       # set under the component's private namespace before configure
- * heartbeat_timeout: 1.0           # seconds of silence before a component counts as lost
- * startup_timeout: 10.0            # seconds a component has to come up after loading
- * restart: true                    # reload lost components when their manager answers again
- * omit: [counter]                 # names of the list not to start (default none; unknown names are an error)
  * @endcode
  */
 #pragma once
@@ -52,6 +50,10 @@ struct SupervisedComponent {
 
 class Supervisor : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Supervisor(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string type = "xpersif/SupervisorNodelet");
   ~Supervisor() override;
 

@@ -1,4 +1,6 @@
 #pragma once
+
+#include "xpersif/core/parameters.h"
 /// @file experiment_spec.h
 /// @brief An experiment file (experiments/*.yaml): the world, the robot, the phases in order, recording, the
 /// run directory, the clock mode and component parameters to override. ROS-free; read with yaml-cpp.
@@ -79,8 +81,15 @@ Override parseOverride(const std::string& text);
 /// range; phase names are unique identifiers; the world file (and robot URDF) exist. Does not load the world:
 /// loadWorldFile does that. Throws ExperimentFileError.
 /// @param known_components component names `parameters` may override (empty: any identifier)
+/// @param declared each component's declared parameters (by component name): a parameter it does not declare
+///        ("did you mean ..."), a value of the wrong type or out of its range is an ExperimentFileError; a
+///        component without an entry is not checked further
 ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Override>& overrides = {},
-                                  const std::vector<std::string>& known_components = {});
+                                  const std::vector<std::string>& known_components = {},
+                                  const std::map<std::string, const ParameterTable*>& declared = {});
+
+/// The components of a supervisor's list (config/loop.yaml): name -> nodelet type.
+std::map<std::string, std::string> componentTypes(const std::string& config_file);
 
 /// The experiment as run: YAML that loadExperimentFile reads back to the same ExperimentSpec, with absolute
 /// paths, every default written out, and the run directory given (no "{time}").

@@ -20,17 +20,11 @@
  * vector on ~features_topic (VISION's), always restricted to ~objects.
  *
  * The objects, their footprints and the push limits come from XPERSim's scene (core::SetupCatalogue).
- * Parameters (configure): ~design (curiosity; any declared design), ~seed (int, 1), ~objects (every object of the
- * scene; a list restricts it), ~min_offset/~max_offset (fractions of each face's offset limit, -1/1),
- * ~min_distance/~max_distance (m, the set-up's minPushDistance/maxPushDistance), ~grid_offsets (fractions,
- * [-0.75, 0, 0.75]), ~grid_distances (fractions of ~max_distance, [0.2, 0.4]), ~candidates (32), ~epsilon (0.1),
- * ~offset_bins (3), ~optimistic_curiosity (1.0), the region designs' ~region_max_size (30), ~progress_window (10),
- * ~region_choice (softmax | greedy), ~temperature (0.1), ~random_share (0.2) (core::DesignOptions), the
- * follower's ~restore, ~restore_timeout, ~experiments_topic, ~run_topic, ~knowledge_base (ExperimentFollower),
- * ~features_topic (vision/features), ~motivation_topic (motivation/motivation). An unknown design or bad
+ * Parameters: DesignOfExperiments::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference). An unknown design or bad
  * bounds make configure fail with the sentence naming the parameter (for a design: and listing the declared
- * ones); a request naming an undeclared design is refused with ResultCode INVALID and the same list. Re-configuring restarts the design
- * from its seed.
+ * ones); a request naming an undeclared design is refused with ResultCode INVALID and the same list.
+ * Re-configuring restarts the design from its seed.
  */
 #pragma once
 
@@ -54,6 +48,10 @@ namespace xpersif {
 
 class DesignOfExperiments : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -25,10 +25,8 @@
  * Everything runs in the command's own thread (blocking calls are allowed there). Action clients are kept
  * per action name, with their own callback threads.
  *
- * Parameters (configure): ~max_age (s, 1.0), ~fresh_timeout (s, 5.0), ~server_timeout (s to wait for an
- * action server or service, 10.0), ~step_timeout (s of ROS time per command attempt, 300), ~max_replans (per
- * goal, 2, 0..10), ~components ([observation, vision, manipulation, relocation]) and ~prefer ([vision]): the
- * operators for replanning and which come first among equally short plans, as PLANNER's; ~max_depth (8).
+ * Parameters: Execution::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  */
 #pragma once
 
@@ -58,6 +56,10 @@ geometry_msgs::Pose2D parsePose(const std::string& field, const std::string& tex
 
 class Execution : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Execution(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~Execution() override;
 

@@ -23,13 +23,9 @@
  * of beats a guess (ties: the first candidate). expected_error is the chosen push's predicted end's distance.
  * Both refuse while no model has arrived.
  *
- * Parameters (configure); the objects, the arena and the defaults of every distance come from XPERSim's scene
- * (core::SetupCatalogue, with L = its longest push, R = the robot's radius, c = the largest object's
- * circumradius): ~seed (1), ~objects (every object; a list restricts it), ~min_target_distance (L / 3),
- * ~max_target_distance (L), ~wall_clearance (c + 1.5 R), ~object_clearance (2 c), ~offsets (fractions of each
- * face's offset limit, [-0.75, -0.375, 0, 0.375, 0.75]), ~distances (fractions of L, [0.15, 0.3, ..., 0.9]),
- * ~random_candidates (256), ~uncertainty_weight (1; 0: the mean alone), ~model_topic (machine_learning/model),
- * ~notions_topic (machine_learning/notions). The choices themselves are core/goal_choice.h's.
+ * Parameters: GoalDesign::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference). The choices themselves are
+ * core/goal_choice.h's.
  */
 #pragma once
 
@@ -58,6 +54,10 @@ namespace xpersif {
 
 class GoalDesign : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -23,10 +23,8 @@
  * asks KNOWLEDGEBASE's get_facts for (a KB that is not offered, or not within ~knowledge_base_timeout, makes the
  * call UNAVAILABLE; one that refuses, FAILED, with its sentence).
  *
- * Parameters (configure): ~components ([observation, vision, manipulation, relocation]), ~prefer ([vision]),
- * ~max_depth (8), ~search_type (breadth_first), ~retry_period (s of wall time between rounds of get_contracts
- * calls, 1.0), ~knowledge_base (the KB's name, knowledge_base), ~knowledge_base_timeout (s of wall time to wait
- * for get_facts, 2.0).
+ * Parameters: Planner::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  */
 #pragma once
 
@@ -67,6 +65,10 @@ std::vector<PlanStep> toStepMessages(const std::vector<core::PlanStep>& steps,
 
 class Planner : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Planner(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~Planner() override;
 

@@ -6,11 +6,9 @@
  * The robot model (a Khepera without a gripper) has no grip or release: `~has_gripper` is false, so those
  * commands are not offered, and ROBOTMODEL reports that it holds nothing.
  *
- * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
- * `~margin` (m, 0.01), `~observation_topic` (observation/features), `~observation_max_age` (s, 2: how old
- * the object's last sighting may be), `~settle_time` (s, 0.3: wait after the retreat before the final
- * observation), `~max_push_distance` (m, a quarter of the arena's smaller inner extent: the longest push
- * accepted), and the `world` file (embodiment_setup.h).
+ * Parameters: Manipulation::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference). The arena comes from the `world` file
+ * (embodiment_setup.h).
  */
 #pragma once
 
@@ -29,6 +27,10 @@ namespace xpersif {
 
 class Manipulation : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
   using Push = CommandServer<PushAction>;

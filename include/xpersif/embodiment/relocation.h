@@ -8,9 +8,8 @@
  * A cancel, the stop operation or a deactivation sends a zero velocity at once (within one control
  * period) and ends the goal.
  *
- * Parameters (configure): `~control_rate` (Hz, 50), `~max_linear` (m/s, 0.1), `~max_angular` (rad/s, 2.5),
- * `~position_tolerance` (m, 0.005), `~yaw_tolerance` (rad, 0.026), `~margin` (m kept from walls and objects,
- * 0.01), `~observation_topic` (observation/features), `~obstacle_max_age` (s, 5: an older observation still places the obstacles, with a warning), and the `world` file
+ * Parameters: Relocation::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference). The arena comes from the `world` file
  * (embodiment_setup.h).
  */
 #pragma once
@@ -35,6 +34,10 @@ namespace xpersif {
 
 class Relocation : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
   using GoToPose = CommandServer<GoToPoseAction>;

@@ -6,8 +6,8 @@
  *        operation `get_robot_state` (pose, speeds, IR ring, contact, what it holds, which embodiment
  *        commands run).
  *
- * Parameters besides the Supervisor's: `~contact_range` (m, 0.003: an IR reading below it counts as
- * contact), `~observation_topic` (observation/features), `~has_gripper` (false for the Khepera).
+ * Parameters: RobotModel::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
+ * reference).
  */
 #pragma once
 
@@ -23,6 +23,10 @@ namespace xpersif {
 
 class RobotModel : public Supervisor {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   RobotModel(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -22,6 +22,10 @@ namespace xpersif {
 
 class ExampleCounter : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   ExampleCounter(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -23,11 +23,8 @@
  * is put back at a free spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
  * `~progress` (RunLoopFeedback).
  *
- * Parameters besides the Supervisor's: `~pose_source` (observation), `~retries` (1), `~tidy` (true),
- * `~tidy_margin` (m; default SetupCatalogue::wallMargin, from the objects, the robot and the arena),
- * `~tidy_spacing` (m; objects closer than this are moved apart; default SetupCatalogue::objectSpacing), `~goal_tolerance` (m, 0.02), `~max_goal_pushes` (5), `~learning_timeout` (s, 20),
- * `~arrange_at_start` (true: a new run starts with the objects and the robot where the world file puts them),
- * and the `world` file for the arena (embodiment_setup.h).
+ * Parameters: LoopModel::parameters() (its own, the Supervisor's and the lockstep client's; README, Parameter
+ * reference), and the `world` file for the arena (embodiment_setup.h).
  */
 #pragma once
 
@@ -59,6 +56,10 @@ namespace xpersif {
 
 class LoopModel : public Supervisor {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   LoopModel(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
   using Run = CommandServer<RunLoopAction>;

@@ -25,6 +25,10 @@ namespace xpersif {
 
 class FeatureExtraction : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   FeatureExtraction(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -9,6 +9,8 @@
  */
 #pragma once
 
+#include "xpersif/core/parameters.h"
+
 #include <sensor_msgs/Image.h>
 
 #include <atomic>
@@ -37,6 +39,8 @@ class FeatureExtractionPart : public ComponentPart {
 
   /// Reads `min_blob_pixels` and `max_chroma_tolerance` under its namespace.
   void configure(const ros::NodeHandle& parameters) override;
+  /// ~<part>/min_blob_pixels, ~<part>/max_chroma_tolerance.
+  static const core::ParameterTable& parameters();
   void shutdown() override;
   std::string problem() const override;
 

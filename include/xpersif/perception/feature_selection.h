@@ -19,6 +19,10 @@ namespace xpersif {
 
 class FeatureSelection : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   FeatureSelection(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

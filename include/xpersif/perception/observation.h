@@ -29,6 +29,10 @@ namespace xpersif {
 
 class Observation : public AggregateComponent {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Observation(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -70,6 +70,10 @@ class LatestMessagePart : public ComponentPart {
 
 class Perception : public AggregateComponent {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Perception(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -27,6 +27,10 @@ namespace xpersif {
 
 class Vision : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   Vision(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  protected:

@@ -6,6 +6,8 @@
  */
 #pragma once
 
+#include "xpersif/core/parameters.h"
+
 #include <ros/ros.h>
 
 #include "xpersif/core/setup.h"
@@ -22,5 +24,7 @@ namespace xpersif {
  * @throws std::runtime_error (or core::ValidationError) with a sentence when the scene cannot be had or used
  */
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+/// The private parameters loadSetupCatalogue reads (~objects, ~world, ~scene_service, ~scene_timeout).
+const core::ParameterTable& setupCatalogueParameters();
 
 }  // namespace xpersif

@@ -38,6 +38,10 @@ namespace xpersif {
 
 class SnapshotRecorder : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   SnapshotRecorder(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~SnapshotRecorder() override;
 

@@ -35,6 +35,10 @@ namespace xpersif {
 
 class WebBridge : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   WebBridge(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~WebBridge() override;
 

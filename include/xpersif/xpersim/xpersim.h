@@ -3,13 +3,7 @@
  * @brief XPERSim, the simulator, as a component: an ODE world (core::PhysicsWorld) stepped at a fixed
  *        rate in its own thread, published as tf so that every client renders the scene itself.
  *
- * Parameters (read on configure):
- *  - `~world` (path to a world file; required), `~clock_mode` (`realtime` | `fast` | `lockstep`),
- *    `~real_time_factor` (realtime mode, default 1), `~start_paused` (default false),
- *    `~tf_rate` (Hz of simulated time for /tf and /clock, default 1000), `~sensor_rate` (Hz, default 50),
- *    `~max_frame_rate` (fast mode: at most this many /tf + /clock frames per wall second, default 1000;
- *    publishing every step at 30k steps/s would cost more than the physics),
- *    `~allow_fault_injection` (default false; advertises `~inject_fault` for tests).
+ * Parameters: XPerSim::parameters() (read on configure; README, Parameter reference).
  *
  * Publishes: /clock, /tf (dynamic nodes, one TFMessage per frame), /tf_static (latched), `~scene`
  * (latched), `~markers` (latched, frame-locked, arena and objects), `~ground_truth`, and the robot's
@@ -47,6 +41,10 @@ namespace xpersif {
 
 class XPerSim : public Component {
  public:
+  /// Its parameters, declared once (README, Parameter reference).
+  static const core::ParameterTable& parameters();
+  const core::ParameterTable* declaredParameters() const override { return &parameters(); }
+
   XPerSim(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~XPerSim() override;
 
