@@ -438,6 +438,9 @@ TEST_F(LockstepHungTest, ASensorJoinsANewClockByItself) {
   good.leave();
 
   xpersif::Transition deactivate, configure, activate;
+  // A drop on the old clock (a report late by more than the timeout on a loaded machine) is the protocol working;
+  // what this test asks is that the new clock keeps the sensor.
+  const double new_clock_from = wallNow();
   ASSERT_TRUE(ros::service::call(kSim + "/deactivate", deactivate) && deactivate.response.success)
       << deactivate.response.message;
   ASSERT_TRUE(ros::service::call(kSim + "/configure", configure) && configure.response.success)
@@ -464,6 +467,11 @@ TEST_F(LockstepHungTest, ASensorJoinsANewClockByItself) {
       << "the new clock did not go on with the sensor on it";
   std::lock_guard<std::mutex> lock(mutex);
   EXPECT_GT(reports, before) << "the sensor is listed but does not report";
-  EXPECT_FALSE(dropEvent(sensor.name(), 0.0)) << "the sensor was dropped by the new clock";
+  bool dropped_by_new_clock = false;
+  for (const auto& e : events_.entries()) {
+    dropped_by_new_clock |= e.wall >= new_clock_from && e.message.name == "lockstep" && e.message.outcome == "dropped" &&
+                            e.message.reason.find("'" + sensor.name() + "'") != std::string::npos;
+  }
+  EXPECT_FALSE(dropped_by_new_clock) << "the sensor was dropped by the new clock";
   again.leave();
 }
