@@ -103,8 +103,11 @@ mkdir -p "$T/kill/csv"
 ok "SIGKILL: recovered $active, kept $kept messages; exported"
 
 # 4. SNAPSHOTRECORDER
+# A list must go through the parameter server: roscpp reads "_topics:=[/tf, /clock]" on a command line as a string
+# (which the recorder refuses: ~topics is declared a string list).
+rosparam set /snapshot_recorder/topics "[/tf, /clock]"
 rosrun nodelet nodelet standalone xpersif/SnapshotRecorderNodelet __name:=snapshot_recorder _autostart:=true \
-  _run_dir:="$T/snap" _seconds:=2.0 _threshold:=0.05 _min_interval:=0 _topics:="[/tf, /clock]" \
+  _run_dir:="$T/snap" _seconds:=2.0 _threshold:=0.05 _min_interval:=0 \
   >"$T/snapshot.log" 2>&1 &
 PIDS+=($!)
 for _ in $(seq 150); do grep -qx /snapshot_recorder/snapshot <(rosservice list 2>/dev/null) && break; sleep 0.2; done
