@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Compare two knowledge bases field by field: every stored field of every experiment, the goals, the
-notions and XPERSim's world states at the start of every step, except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
+notions, XPERSim's world states at the start of every step and FEATURESELECTION's choice (the facts
+features_chosen and feature_scores of every run), except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
 which include the idle time of a lockstep clock). Exit 0 when equal, 1 with the differences listed.
 
 usage: compare_kb.py A.db B.db [--keep-times]"""
@@ -56,6 +57,16 @@ def main():
                 if x.get(key) != y.get(key):
                     differences += 1
                     print(f"{table} row {i + 1} field {key}: {str(x.get(key))[:200]} != {str(y.get(key))[:200]}")
+    # FEATURESELECTION's choice, as the run's facts (the other facts hold poses and calls of their moment).
+    if "facts" in tables(a) & tables(b):
+        query = ("SELECT run_id, literal FROM facts WHERE predicate IN ('features_chosen', 'feature_scores') "
+                 "ORDER BY run_id, predicate, subject")
+        fa = sqlite3.connect(f"file:{a}?mode=ro", uri=True).execute(query).fetchall()
+        fb = sqlite3.connect(f"file:{b}?mode=ro", uri=True).execute(query).fetchall()
+        compared += len(fa)
+        if fa != fb:
+            differences += 1
+            print(f"feature choices: {fa} in {a}, {fb} in {b}")
     print(f"compared {compared} rows: {differences} differences")
     return 1 if differences else 0
 

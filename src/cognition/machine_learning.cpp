@@ -6,12 +6,32 @@
 #include <cmath>
 
 #include "xpersif/core/experiment_samples.h"
+#include "xpersif/core/vision.h"
 #include "xpersif/ros/experiment_conversions.h"
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
 
 namespace {
+
+/// A literal's tuple argument, "(a, b)"; "none" for no names.
+std::string tuple(const std::vector<std::string>& names) {
+  std::string text;
+  for (const auto& n : names) text += (text.empty() ? "" : ", ") + n;
+  return names.empty() ? "none" : "(" + text + ")";
+}
+
+/// One unit of a feature in the learner's input distance where ~feature_scales names none: what tells two objects
+/// apart (30 degrees of hue, 1 cm of edge, ...).
+double defaultScale(const std::string& feature) {
+  static const std::map<std::string, double> scales = {
+      {"hue", 30.0},     {"saturation", 0.1}, {"color_r", 0.1}, {"color_g", 0.1},     {"color_b", 0.1},
+      {"size", 0.01},    {"area", 0.0004},    {"elongation", 0.25}, {"orientation", 0.2}, {"x", 0.05},
+      {"y", 0.05},       {"distance_to_robot", 0.05}, {"bearing_from_robot", 0.2}, {"distance_to_wall", 0.05},
+      {"confidence", 0.1}};
+  const auto it = scales.find(feature);
+  return it == scales.end() ? 1.0 : it->second;
+}
 
 core::Bindings pushBindings(const Experiment& e) {
   return {{"?object", e.object},
@@ -77,6 +97,80 @@ MachineLearning::MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh)
         response.samples = static_cast<std::uint32_t>(learner_->sampleCount());
         response.message = "from " + std::to_string(response.samples) + " samples";
       });
+
+  core::Contract use;
+  use.name = "use_features";
+  use.kind = core::Contract::Kind::Operation;
+  use.interface_type = "xpersif/UseFeatures";
+  use.description = "learn from these features of the pushed object (initial: ~features), retrained at once";
+  use.parameters = {"?features"};
+  use.effects = {"learns_from(machine_learning, ?features)"};
+  ContractChecker<UseFeatures::Request> use_contract(use);
+  addOperation<UseFeatures>(
+      use_contract,
+      [](const UseFeatures::Request& r) {
+        core::requireMaxSize("names", r.names.size(), core::kMaxExtraFeatures);
+        if (r.initial && !r.names.empty()) {
+          throw core::ValidationError("initial is set and names are given; ask for one or the other");
+        }
+        std::vector<std::string> known;
+        for (const auto& f : core::availableFeatures()) known.push_back(f.name);
+        for (std::size_t i = 0; i < r.names.size(); ++i) {
+          core::requireKnownName("names[" + std::to_string(i) + "]", r.names[i], known);
+          if (std::find(r.names.begin(), r.names.begin() + static_cast<std::ptrdiff_t>(i), r.names[i]) !=
+              r.names.begin() + static_cast<std::ptrdiff_t>(i)) {
+            throw core::ValidationError("names[" + std::to_string(i) + "] '" + r.names[i] + "' is named twice");
+          }
+        }
+      },
+      [this](const UseFeatures::Request& r, UseFeatures::Response& response) { useFeatures(r.names, r.initial, response); }, true,
+      [](const UseFeatures::Request&, const UseFeatures::Response& response) {
+        return core::Bindings{{"?features", tuple(response.features)}};
+      });
+}
+
+void MachineLearning::useFeatures(const std::vector<std::string>& names, bool initial, UseFeatures::Response& response) {
+  std::shared_ptr<core::PushModel> learner;
+  std::vector<ExperimentRecord> records;
+  core::PushModelConfig config;
+  std::string type;
+  std::uint64_t run = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!learner_) throw core::UnavailableError("the model is not configured yet");
+    config = config_;
+    config.feature_names = initial ? configured_features_ : names;
+    for (const auto& f : config.feature_names) {
+      if (!config.feature_scales.count(f)) config.feature_scales[f] = defaultScale(f);
+    }
+    type = learner_type_;
+    records = records_;
+    run = run_id_;
+  }
+  learner = rebuild(type, config, run, records);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    config_ = config;
+    ++config_generation_;
+    // A run restored meanwhile: learn its records; records that arrived meanwhile: learn them too.
+    if (run_id_ != run || records_.size() < records.size()) learner = rebuild(type, config, run_id_, records_);
+    for (std::size_t i = run_id_ != run ? records_.size() : records.size(); i < records_.size(); ++i) {
+      core::PushSample sample;
+      if (!sampleOf(records_[i], &sample).empty()) continue;
+      try {
+        learner->addSample(sample.input, sample.outcome);
+      } catch (const std::exception& e) {
+        ROS_WARN("%s: skipping experiment %u: %s", name().c_str(), records_[i].seq, e.what());
+      }
+    }
+    learner_ = learner;
+    response.features = config_.feature_names;
+    response.samples = static_cast<std::uint32_t>(learner_->sampleCount());
+  }
+  response.message = "learns from " + (response.features.empty() ? std::string("the push and the identity alone")
+                                                                  : tuple(response.features)) +
+                     ", retrained on " + std::to_string(response.samples) + " samples";
+  publish();
 }
 
 MachineLearning::~MachineLearning() {
@@ -139,7 +233,10 @@ void MachineLearning::onConfigure() {
     std::lock_guard<std::mutex> lock(mutex_);
     learner_type_ = learner_type;
     config_ = config;
+    configured_features_ = config.feature_names;
+    ++config_generation_;
     learner_ = std::move(learner);
+    records_.clear();
     run_id_ = 0;
     follow_ = follow;
     if (!model_pub_) {
@@ -179,14 +276,9 @@ std::shared_ptr<core::PushModel> MachineLearning::makeModel(const std::string& t
   return model;
 }
 
-void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
-  core::PushModelConfig config;
-  std::string type;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    config = config_;
-    type = learner_type_;
-  }
+std::shared_ptr<core::PushModel> MachineLearning::rebuild(const std::string& type, const core::PushModelConfig& config,
+                                                         std::uint64_t run_id,
+                                                         const std::vector<ExperimentRecord>& records) {
   std::vector<core::PushSample> samples;
   auto learner = makeModel(type, config);
   for (const auto& record : records) {
@@ -199,13 +291,30 @@ void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRe
       samples.push_back(sample);
     } catch (const std::exception& e) {
       ROS_WARN("%s: skipping experiment %u of run %lu: %s", name().c_str(), record.seq,
-               static_cast<unsigned long>(record.run_id), e.what());
+               static_cast<unsigned long>(run_id), e.what());
     }
   }
   learner->addSamples(samples);  // trained once, outside the lock: predict goes on meanwhile
+  return learner;
+}
+
+void MachineLearning::reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records) {
+  core::PushModelConfig config;
+  std::string type;
+  std::uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    config = config_;
+    type = learner_type_;
+    generation = config_generation_;
+  }
+  auto learner = rebuild(type, config, run_id, records);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // use_features changed the inputs meanwhile: learn the records again with them (rare; under the lock).
+    if (generation != config_generation_) learner = rebuild(learner_type_, config_, run_id, records);
     learner_ = std::move(learner);
+    records_ = records;
     run_id_ = run_id;
   }
   publish();
@@ -221,6 +330,7 @@ void MachineLearning::add(const ExperimentRecord& record) {
   try {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!learner_) return;
+    records_.push_back(record);  // before learning it: use_features learns every record of the run again
     learner_->addSample(sample.input, sample.outcome);
     run_id_ = record.run_id;
   } catch (const std::exception& e) {
@@ -242,6 +352,7 @@ void MachineLearning::publish() {
     model->samples = notions->samples = static_cast<std::uint32_t>(learner_->sampleCount());
     model->format = learner_->format();
     model->data = learner_->save();
+    model->features = config_.feature_names;
     for (const auto& n : learner_->notions()) notions->notions.push_back(toMsg(n));
   }
   model_pub_.publish(model);

@@ -91,6 +91,12 @@ const std::vector<FeatureInfo>& availableFeatures() {
   return features;
 }
 
+const std::vector<std::string>& objectFeatureNames() {
+  static const std::vector<std::string> names = {"hue",  "saturation", "color_r", "color_g",
+                                                 "color_b", "size",    "area",    "elongation"};
+  return names;
+}
+
 FeatureSelection::FeatureSelection() : names_(defaultNames()) {}
 
 FeatureSelection::FeatureSelection(const std::vector<std::string>& names) { set(names); }

@@ -185,6 +185,7 @@ void GoalDesign::onModel(const LearnedModel::ConstPtr& model) {
   }
   learner_ = std::move(learner);
   model_run_ = model->run_id;
+  model_features_ = model->features;
   modelled_.notify_all();
 }
 
@@ -235,17 +236,21 @@ std::string GoalDesign::whyNoModel() const {
          (model_problem_.empty() ? "" : " (" + model_problem_ + ")");
 }
 
-void GoalDesign::waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples) {
-  if (samples == 0) return;
-  if (!modelled_.wait_for(lock, std::chrono::seconds(20),
-                          [&] { return learner_ && learner_->sampleCount() >= samples; })) {
-    ROS_WARN("%s: no model of %u samples within 20 s; going on with the one it has", name().c_str(), samples);
+void GoalDesign::waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples,
+                                const std::vector<std::string>& features) {
+  if (samples == 0 && features.empty()) return;
+  // The features too: a model retrained on FEATURESELECTION's choice has as many samples as the one before it.
+  if (!modelled_.wait_for(lock, std::chrono::seconds(20), [&] {
+        return learner_ && learner_->sampleCount() >= samples && (features.empty() || model_features_ == features);
+      })) {
+    ROS_WARN("%s: no model of %u samples (and the features asked for) within 20 s; going on with the one it has",
+             name().c_str(), samples);
   }
 }
 
 void GoalDesign::designGoal(const DesignGoal::Request& request, DesignGoal::Response& response) {
   std::unique_lock<std::mutex> lock(mutex_);
-  waitForSamples(lock, request.samples);
+  waitForSamples(lock, request.samples, request.features);
   std::vector<const ObjectFeatures*> movable;
   std::vector<std::string> skipped;
   for (const auto& o : request.scene.objects) {
@@ -327,7 +332,7 @@ double GoalDesign::predictedSpread(const core::ObjectFeatures& object) const {
 
 void GoalDesign::choosePush(const ChoosePush::Request& request, ChoosePush::Response& response) {
   std::unique_lock<std::mutex> lock(mutex_);
-  waitForSamples(lock, request.samples);
+  waitForSamples(lock, request.samples, request.features);
   if (!learner_) throw core::UnavailableError("no learned model has arrived yet");
   const core::ObjectFeatures object = fromMsg(*findObject(request.scene, request.object));
   const auto footprint = footprints_.find(request.object);

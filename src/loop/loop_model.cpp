@@ -8,6 +8,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "xpersif/ChooseFeatures.h"
 #include "xpersif/ChoosePush.h"
 #include "xpersif/DesignExperiment.h"
 #include "xpersif/DesignGoal.h"
@@ -20,8 +21,10 @@
 #include "xpersif/RecordExperiment.h"
 #include "xpersif/RecordGoal.h"
 #include "xpersif/RecordWorldState.h"
+#include "xpersif/SelectFeatures.h"
 #include "xpersif/SetPose.h"
 #include "xpersif/StartRun.h"
+#include "xpersif/UseFeatures.h"
 #include "xpersif/WorldState.h"
 #include "xpersif/component/action_wait.h"
 #include "xpersif/component/parameters.h"
@@ -171,7 +174,10 @@ const core::ParameterTable& LoopModel::parameters() {
                                "m: a goal is reached when the object's centre is this close to the target"),
          core::intParameter("max_goal_pushes", 5, 1, 50, "pushes a goal may take"),
          core::numberParameter("learning_timeout", 20.0, 1e-3, 3600.0,
-                               "s of wall time to wait for MACHINELEARNING's model of the latest experiment")});
+                               "s of wall time to wait for MACHINELEARNING's model of the latest experiment"),
+         core::intParameter("select_features_after", 16, 0, 100000,
+                            "FEATURESELECTION chooses the features learned from once a run has this many experiments "
+                            "and goes on (0: never)")});
     own.include(Supervisor::parameters()).include(LockstepClient::parameters());
     return own;
   }();
@@ -191,6 +197,7 @@ void LoopModel::onConfigure() {
   const double tidy_spacing = parameters.get<double>("tidy_spacing", -1.0);
   const double arena_half = 0.5 * std::min(setup.arena.size_x, setup.arena.size_y);
   if (tidy_spacing >= 0) core::requireInRange("~tidy_spacing", tidy_spacing, 0.0, 2 * arena_half);
+  const int select_features_after = parameters.get<int>("select_features_after");
   if (tidy_margin >= 0) core::requireInRange("~tidy_margin", tidy_margin, 0.0, arena_half);
   const double goal_tolerance = parameters.get<double>("goal_tolerance");
   const int max_goal_pushes = parameters.get<int>("max_goal_pushes");
@@ -209,6 +216,7 @@ void LoopModel::onConfigure() {
     goal_tolerance_ = goal_tolerance;
     max_goal_pushes_ = max_goal_pushes;
     learning_timeout_ = learning_timeout;
+    select_features_after_ = static_cast<std::uint32_t>(select_features_after);
     progress_.state = "idle";
     if (!progress_pub_) progress_pub_ = pnh.advertise<RunLoopFeedback>("progress", 1, true);
   }
@@ -432,6 +440,11 @@ std::string LoopModel::arrangeInitialScene() {
   return "";
 }
 
+std::vector<std::string> LoopModel::learningFeatures() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return learning_features_;
+}
+
 std::uint32_t LoopModel::modelSamples() {
   std::lock_guard<std::mutex> lock(mutex_);
   return model_samples_;
@@ -449,6 +462,88 @@ void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
   }
   ROS_WARN("%s: MACHINELEARNING has not learned experiment %u within %.0f s; going on", name().c_str(), samples,
            learning_timeout_);
+}
+
+std::string LoopModel::waitForSelection(const std::vector<std::string>& selection) {
+  Spending spending(wall_spent_, "features");
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
+  std::string why;
+  while (ros::ok()) {
+    GetFeatures features;
+    features.request.max_age = 0.0;
+    why = call(nodeHandle(), "vision/get_features", features);
+    if (why.empty()) {
+      const auto& objects = features.response.features.objects;
+      const bool carried = !objects.empty() && std::all_of(objects.begin(), objects.end(), [&](const ObjectFeatures& o) {
+        return o.feature_names == selection;
+      });
+      if (carried) return "";
+      why = "its vectors do not carry the selection yet";
+    }
+    if (ros::WallTime::now() > deadline) break;
+    // (In lockstep the clock's idle ticks bring new frames of the standing world.)
+    ros::WallDuration(0.02).sleep();
+  }
+  return "VISION did not take up the selection within 20 s: " + why;
+}
+
+std::string LoopModel::ensureFeatures(std::uint64_t run_id, std::uint64_t seed, std::uint32_t done,
+                                      std::uint32_t experiments, FeatureStage& stage) {
+  const std::uint32_t after = std::min(select_features_after_, experiments);
+  const int target = after > 0 && done >= after ? 1 : 0;
+  const std::uint64_t losses = losses_;
+  if (stage.applied == target && stage.losses == losses) return "";
+  std::string why;
+  std::vector<std::string> learn, selection;  // learn empty: MACHINELEARNING's ~features
+  bool chosen = false;
+  if (target == 1) {
+    // Ranked on what the knowledge base holds of the run's first experiments: a resumed run chooses the same.
+    ChooseFeatures choose;
+    choose.request.run_id = run_id;
+    choose.request.experiments = after;
+    choose.request.seed = core::streamSeed(seed, run_id, after, core::StreamPurpose::Features);
+    {
+      Spending spending(wall_spent_, "features");
+      why = callPatiently(nodeHandle(), "feature_selection/choose_features", choose);
+    }
+    if (why.empty()) {
+      chosen = true;
+      learn = choose.response.chosen;
+      selection = choose.response.selected;
+      ROS_INFO("%s: run %lu: %s", name().c_str(), static_cast<unsigned long>(run_id), choose.response.message.c_str());
+    } else if (choose.response.code == ResultCode::FAILED) {
+      ROS_WARN("%s: run %lu goes on with the initial features: FEATURESELECTION made no choice: %s", name().c_str(),
+               static_cast<unsigned long>(run_id), why.c_str());
+    } else {
+      return "FEATURESELECTION's choose_features: " + why;
+    }
+  }
+  if (!chosen) {
+    SelectFeatures initial;  // none: FEATURESELECTION's initial selection
+    {
+      Spending spending(wall_spent_, "features");
+      why = callPatiently(nodeHandle(), "feature_selection/select_features", initial);
+    }
+    if (!why.empty()) return "FEATURESELECTION's select_features: " + why;
+    selection = initial.response.selected;
+  }
+  UseFeatures use;
+  use.request.names = learn;
+  use.request.initial = !chosen;
+  {
+    Spending spending(wall_spent_, "features");
+    why = callPatiently(nodeHandle(), "machine_learning/use_features", use);
+  }
+  if (!why.empty()) return "MACHINELEARNING's use_features: " + why;
+  why = waitForSelection(selection);
+  if (!why.empty()) return why;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    learning_features_ = use.response.features;
+  }
+  stage.applied = target;
+  stage.losses = losses;
+  return "";
 }
 
 void LoopModel::onComponentLost(const SupervisedComponent& component, const std::string& reason) {
@@ -749,6 +844,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
                static_cast<unsigned long>(result.run_id), why.c_str());
     }
   }
+  FeatureStage features;  // which features the run learns from (FEATURESELECTION's choice once it is due)
   std::string step_state;  // the world state at the start of the current step
   std::string next_state;  // the world at the end of the last step, stored already as the next one's start
 
@@ -772,6 +868,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     why = gate(context, goal.confirm_each);
     if (!why.empty()) return ended(why);
     setState("experimenting");
+    why = ensureFeatures(result.run_id, goal.seed, done, goal.experiments, features);
+    if (!why.empty()) return ended("cannot set the features learned from: " + why);
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
     if (tidy_) {
@@ -882,6 +980,9 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     }
     why = gate(context, goal.confirm_each);  // sliding autonomy holds in both phases
     if (!why.empty()) return ended(why);
+    // The choice of a run of no more than ~select_features_after experiments is made here; again after a loss.
+    why = ensureFeatures(result.run_id, goal.seed, done, goal.experiments, features);
+    if (!why.empty()) return ended("cannot set the features learned from: " + why);
     FeatureVector scene;
     if (!getScene(&scene, &why)) return ended("cannot observe the scene: " + why);
     // Goal g's choices are numbered after the experiments, so that they never share a stream with them.
@@ -895,6 +996,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
     DesignGoal design;
     design.request.scene = scene;
     design.request.samples = modelSamples();
+    design.request.features = learningFeatures();
     design.request.seeded = true;
     design.request.stream = core::streamSeed(goal.seed, result.run_id, goal_index, core::StreamPurpose::Goal);
     design.request.tolerance = goal_tolerance_;
@@ -927,8 +1029,11 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
         push_state = checkpointWorld(&ignored);
       }
       const std::string push_lineage = world_lineage_;
+      why = ensureFeatures(result.run_id, goal.seed, done, goal.experiments, features);  // again after a loss
+      if (!why.empty()) return ended("cannot set the features learned from: " + why);
       ChoosePush choose;
       choose.request.samples = modelSamples();
+      choose.request.features = learningFeatures();
       choose.request.scene = scene;
       choose.request.object = design.response.object;
       choose.request.target_x = design.response.target_x;

@@ -23,6 +23,7 @@
 #include <sstream>
 
 #include "xpersif/core/command_line.h"
+#include "xpersif/core/contract.h"
 #include "xpersif/core/evaluation.h"
 #include "xpersif/core/knowledge_base.h"
 
@@ -77,6 +78,46 @@ void plot(const std::vector<LearningCurve>& curves, const std::string& path) {
                 0.5, colour, 1, cv::LINE_AA);
   }
   cv::imwrite(path, image);
+}
+
+/// The items of a literal's tuple argument "(a, b)"; none for "none".
+std::vector<std::string> tupleItems(const std::string& argument) {
+  std::vector<std::string> items;
+  if (argument.size() < 2 || argument.front() != '(') return items;
+  std::stringstream in(argument.substr(1, argument.size() - 2));
+  for (std::string item; std::getline(in, item, ',');) {
+    const auto begin = item.find_first_not_of(' ');
+    if (begin != std::string::npos) items.push_back(item.substr(begin));
+  }
+  return items;
+}
+
+/// FEATURESELECTION's choice in a run, from the facts its choose_features call left (README "Calls and facts").
+std::string featureChoice(KnowledgeBase& kb, std::int64_t run_id) {
+  std::string chosen, experiments, scores;
+  for (const auto& fact : kb.facts(run_id)) {
+    Literal literal;
+    try {
+      literal = parseLiteral(fact.literal);
+    } catch (const std::exception&) {
+      continue;
+    }
+    if (literal.predicate == "features_chosen" && literal.arguments.size() == 3) {
+      const auto items = tupleItems(literal.arguments[1]);
+      for (const auto& item : items) chosen += (chosen.empty() ? "" : ", ") + item;
+      if (items.empty()) chosen = "no feature (none helped)";
+      experiments = literal.arguments[2];
+    } else if (literal.predicate == "feature_scores" && literal.arguments.size() == 2) {
+      for (const auto& item : tupleItems(literal.arguments[1])) {
+        const auto slash = item.find('/');
+        scores += (scores.empty() ? "" : ", ") +
+                  (slash == std::string::npos ? item : item.substr(0, slash) + " " + item.substr(slash + 1));
+      }
+    }
+  }
+  if (chosen.empty()) return "no choice stored (MACHINELEARNING learned from its ~features)";
+  return "chose " + chosen + " after its first " + experiments + " experiments" +
+         (scores.empty() ? "" : "; scores (held-out error rise when shuffled, share of the variance): " + scores);
 }
 
 }  // namespace
@@ -219,6 +260,12 @@ int main(int argc, char** argv) {
         md << "\n";
       }
     }
+    md << "\n## Features learned from (FEATURESELECTION)\n\n";
+    std::vector<std::string> choice_runs = designs;
+    if (!goals_name.empty() && std::find(designs.begin(), designs.end(), goals_name) == designs.end()) {
+      choice_runs.push_back(goals_name);
+    }
+    for (const auto& name : choice_runs) md << "- " << name << ": " << featureChoice(*kb, need(name).id) << "\n";
     const std::string notion_run = goals_name.empty() ? designs.front() : goals_name;
     md << "\n## Notions (run '" << notion_run << "')\n\n";
     for (const auto& n : kb->notions(need(notion_run).id)) {

@@ -6,19 +6,25 @@
 #include <ros/ros.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
+#include <algorithm>
 #include <csignal>
 #include <set>
 
 #include "ground_truth.h"
 #include "test_helpers.h"
 #include "xpersif/ComponentEvent.h"
+#include "xpersif/ChooseFeatures.h"
 #include "xpersif/ExperimentRecord.h"
+#include "xpersif/GetCalls.h"
 #include "xpersif/GetExperiments.h"
+#include "xpersif/GetFacts.h"
 #include "xpersif/GetNotions.h"
 #include "xpersif/GetState.h"
 #include "xpersif/LearnedModel.h"
 #include "xpersif/Motivation.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/RunLoopAction.h"
+#include "xpersif/UseFeatures.h"
 
 using xpersif_test::Recorder;
 using xpersif_test::waitFor;
@@ -48,6 +54,36 @@ int pidOf(const std::string& node) {
   return static_cast<int>(response[2]);
 }
 
+/// The arguments of a ground literal "p(a, (b, c), d)": {"a", "(b, c)", "d"}.
+std::vector<std::string> argumentsOf(const std::string& literal) {
+  std::vector<std::string> args(1);
+  int depth = 0;
+  for (std::size_t i = literal.find('(') + 1; i + 1 < literal.size(); ++i) {
+    const char c = literal[i];
+    depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+    if (c == ',' && depth == 0) {
+      args.emplace_back();
+    } else if (!(c == ' ' && args.back().empty())) {
+      args.back() += c;
+    }
+  }
+  return args;
+}
+
+/// The items of a tuple argument "(a, b)"; none for "none".
+std::vector<std::string> itemsOf(const std::string& tuple) {
+  if (tuple == "none") return {};
+  return argumentsOf("t" + tuple);
+}
+
+/// The fact of @p predicate (and, if given, @p subject) among @p facts, or "".
+std::string factOf(const std::vector<std::string>& facts, const std::string& predicate, const std::string& subject = "") {
+  for (const auto& f : facts) {
+    if (f.rfind(predicate + "(", 0) == 0 && (subject.empty() || argumentsOf(f).front() == subject)) return f;
+  }
+  return "";
+}
+
 }  // namespace
 
 TEST(Loop, AShortRunLearnsAndIsRecorded) {
@@ -63,7 +99,9 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   ASSERT_TRUE(client.waitForServer(ros::Duration(30.0)));
   xpersif::RunLoopGoal goal;
   goal.name = kill_mid_run ? "survives" : "short";
-  goal.experiments = kill_mid_run ? 4 : 3;
+  // FEATURESELECTION chooses once the run has its first 4 experiments (loop.test's ~select_features_after): the
+  // short run's fifth experiment and its goal use the choice. The run of 4 with --kill goes no further: no choice.
+  goal.experiments = kill_mid_run ? 4 : 5;
   goal.goals = kill_mid_run ? 0 : 1;
   goal.design = "random";
   goal.seed = 5;
@@ -138,6 +176,90 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   notions.request.run_id = result->run_id;
   EXPECT_TRUE(ros::service::call(ns + "knowledge_base/get_notions", notions));
   EXPECT_TRUE(notions.response.success) << notions.response.message;
+
+  // FEATURESELECTION's choice, through the running components, as the knowledge base keeps it.
+  const std::uint32_t after = 4;
+  std::size_t rankable = 0;  // done experiments among the first ones (every candidate is measured by the camera)
+  for (const auto& r : stored.response.experiments) rankable += r.seq <= after && r.status == "done";
+  xpersif::GetFacts facts;
+  facts.request.run_id = result->run_id;
+  ASSERT_TRUE(ros::service::call(ns + "knowledge_base/get_facts", facts) && facts.response.success)
+      << facts.response.message;
+  const std::string learns = factOf(facts.response.facts, "learns_from", "machine_learning");
+  const std::string selected = factOf(facts.response.facts, "selected", "vision");
+  ASSERT_FALSE(learns.empty()) << "MACHINELEARNING was never told what to learn from";
+  ASSERT_FALSE(selected.empty()) << "VISION's selection was never set";
+  const std::vector<std::string> selection = itemsOf(argumentsOf(selected)[1]);
+  if (kill_mid_run) {
+    // A run that ends with its 4th experiment has nothing to use a choice for: it learned from ~features.
+    EXPECT_EQ(factOf(facts.response.facts, "features_chosen", std::to_string(result->run_id)), "");
+    EXPECT_EQ(learns, "learns_from(machine_learning, (hue, size))");
+  } else if (rankable >= 4) {
+    const std::string chosen = factOf(facts.response.facts, "features_chosen", std::to_string(result->run_id));
+    const std::string scores = factOf(facts.response.facts, "feature_scores", std::to_string(result->run_id));
+    ASSERT_FALSE(chosen.empty()) << "no choice stored although " << rankable << " experiments could be ranked on";
+    ASSERT_FALSE(scores.empty());
+    EXPECT_EQ(argumentsOf(chosen)[2], std::to_string(after)) << chosen;
+    const std::vector<std::string> names = itemsOf(argumentsOf(chosen)[1]);
+    EXPECT_LE(names.size(), 2u) << chosen;  // FEATURESELECTION's ~count
+    // Every candidate scored (the object's own features: hue, saturation, colours, size, area, elongation).
+    EXPECT_EQ(itemsOf(argumentsOf(scores)[1]).size(), 8u) << scores;
+    // MACHINELEARNING learns from exactly the choice; VISION extracts it beside its ~features.
+    EXPECT_EQ(itemsOf(argumentsOf(learns)[1]), names) << learns << " vs " << chosen;
+    for (const auto& n : names) {
+      EXPECT_NE(std::find(selection.begin(), selection.end(), n), selection.end()) << n << " not in " << selected;
+    }
+    // The experiments after the choice carry VISION's new selection; the last model learns from the choice.
+    for (const auto& r : stored.response.experiments) {
+      if (r.seq <= after || r.status != "done") continue;
+      // (The knowledge base keeps an object's features by name: compare as sets.)
+      const std::set<std::string> wanted(selection.begin(), selection.end());
+      for (const auto& o : r.before.objects) {
+        EXPECT_EQ(std::set<std::string>(o.feature_names.begin(), o.feature_names.end()), wanted) << "experiment " << r.seq;
+      }
+    }
+    bool modelled = false;
+    for (const auto& m : models.messages()) {
+      if (m.run_id == result->run_id) modelled = m.features == names;
+    }
+    EXPECT_TRUE(modelled) << "the last model of the run does not learn from " << chosen;
+  } else {
+    // Too few experiments to rank on: the call failed with its code and sentence, the run kept its features.
+    xpersif::GetCalls calls;
+    calls.request.run_id = result->run_id;
+    calls.request.component = "feature_selection";
+    ASSERT_TRUE(ros::service::call(ns + "knowledge_base/get_calls", calls) && calls.response.success);
+    bool failed = false;
+    for (const auto& c : calls.response.calls) {
+      failed = failed || (c.name == "choose_features" && c.code == xpersif::ResultCode::FAILED &&
+                          c.reason.find("ranking needs at least 4") != std::string::npos);
+    }
+    EXPECT_TRUE(failed) << "only " << rankable << " experiments to rank on, and no failed choose_features stored";
+    EXPECT_EQ(learns, "learns_from(machine_learning, (hue, size))");
+  }
+  // Bad input gets a code and a sentence, and changes nothing.
+  xpersif::ChooseFeatures bad_choice;
+  bad_choice.request.run_id = result->run_id;
+  bad_choice.request.experiments = after;
+  bad_choice.request.candidates = {"hue", "x"};
+  ASSERT_TRUE(ros::service::call(ns + "feature_selection/choose_features", bad_choice));
+  EXPECT_EQ(bad_choice.response.code, xpersif::ResultCode::INVALID);
+  EXPECT_NE(bad_choice.response.message.find("candidates[1] 'x' is not a candidate"), std::string::npos)
+      << bad_choice.response.message;
+  bad_choice.request.candidates = {};
+  bad_choice.request.run_id = 0;
+  ASSERT_TRUE(ros::service::call(ns + "feature_selection/choose_features", bad_choice));
+  EXPECT_EQ(bad_choice.response.code, xpersif::ResultCode::INVALID) << bad_choice.response.message;
+  xpersif::UseFeatures bad_use;
+  bad_use.request.names = {"hue", "weight"};
+  ASSERT_TRUE(ros::service::call(ns + "machine_learning/use_features", bad_use));
+  EXPECT_EQ(bad_use.response.code, xpersif::ResultCode::INVALID);
+  EXPECT_NE(bad_use.response.message.find("weight"), std::string::npos) << bad_use.response.message;
+  facts.response = {};
+  ASSERT_TRUE(ros::service::call(ns + "knowledge_base/get_facts", facts) && facts.response.success);
+  EXPECT_EQ(factOf(facts.response.facts, "learns_from", "machine_learning"), learns);
+  EXPECT_EQ(factOf(facts.response.facts, "selected", "vision"), selected);
+
   EXPECT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 60.0)) << which << " is not ACTIVE after the run";
 }
 

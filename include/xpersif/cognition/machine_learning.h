@@ -22,6 +22,13 @@
  * Operation `predict` (Predict): the predicted dx, dy, dyaw (mean and std) of a push of an object with the
  * given features, and how many samples the model has.
  *
+ * Operation `use_features` (UseFeatures): learn from these features of the pushed object from now on (FEATURESELECTION's
+ * choice, which LOOPMODEL passes on; none: the push and the identity alone; `initial`: back to `~features`); the model is retrained at once from every record of
+ * the run it has followed (a record lacking a feature is skipped, as always) and published. Unknown or repeated names
+ * are INVALID. Effect `learns_from(machine_learning, (names...) | none)`. A feature without a `~feature_scales`
+ * entry gets a unit that tells objects apart (saturation and colours 0.1, area 4 cm^2, elongation 0.25, ...).
+ * `LearnedModel.features` says what a published model learns from.
+ *
  * Parameters: MachineLearning::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
  * reference).
  */
@@ -33,6 +40,7 @@
 #include "xpersif/LearnedModel.h"
 #include "xpersif/Notions.h"
 #include "xpersif/Predict.h"
+#include "xpersif/UseFeatures.h"
 #include "xpersif/cognition/experiment_follower.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/push_model.h"
@@ -60,6 +68,10 @@ class MachineLearning : public Component {
 
  private:
   void reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records);
+  void useFeatures(const std::vector<std::string>& names, bool initial, UseFeatures::Response& response);
+  /// A fresh model of @p type and @p config trained on the samples of @p records.
+  std::shared_ptr<core::PushModel> rebuild(const std::string& type, const core::PushModelConfig& config,
+                                           std::uint64_t run_id, const std::vector<ExperimentRecord>& records);
   void add(const ExperimentRecord& record);
   void publish();
 
@@ -68,9 +80,12 @@ class MachineLearning : public Component {
 
   std::mutex loader_mutex_;
   AlgorithmLoader<core::PushModel> loader_;  // before the models: it holds their code
-  std::mutex mutex_;  // guards learner_type_, config_, learner_, run_id_
+  std::mutex mutex_;  // guards learner_type_, config_, learner_, run_id_, records_, ...
   std::string learner_type_;
   core::PushModelConfig config_;
+  std::vector<std::string> configured_features_;  // ~features
+  std::uint64_t config_generation_ = 0;           // bumped whenever config_ changes
+  std::vector<ExperimentRecord> records_;         // the run's records followed so far (use_features learns them again)
   std::shared_ptr<core::PushModel> learner_;
   std::uint64_t run_id_ = 0;
   ExperimentFollower::Options follow_;

@@ -103,13 +103,17 @@ class Component {
    * The response type must have `bool success` and `string message`. The call is refused (success false,
    * message says why, nothing changed) when the component is not ACTIVE and @p requires_active is set,
    * when @p validate throws, or when a precondition of @p contract fails. A @p handle that throws reports
-   * failure with the exception's text; handlers validate before they change anything.
+   * failure with the exception's text; handlers validate before they change anything. The effects of a call
+   * that succeeded are grounded from the request's bindings and, for parameters that only the answer knows (what
+   * an operation chose), from @p result_bindings of the request and the response.
    */
   template <class Service>
   void addOperation(ContractChecker<typename Service::Request> contract,
                     std::function<void(const typename Service::Request&)> validate,
                     std::function<void(const typename Service::Request&, typename Service::Response&)> handle,
-                    bool requires_active = true);
+                    bool requires_active = true,
+                    std::function<core::Bindings(const typename Service::Request&, const typename Service::Response&)>
+                        result_bindings = nullptr);
 
   /// Offer a command (an action); see command.h for the checks and outcomes.
   template <class ActionSpec>
@@ -179,7 +183,9 @@ template <class Service>
 void Component::addOperation(ContractChecker<typename Service::Request> contract,
                              std::function<void(const typename Service::Request&)> validate,
                              std::function<void(const typename Service::Request&, typename Service::Response&)> handle,
-                             bool requires_active) {
+                             bool requires_active,
+                             std::function<core::Bindings(const typename Service::Request&,
+                                                          const typename Service::Response&)> result_bindings) {
   using Request = typename Service::Request;
   using Response = typename Service::Response;
   if (contract.contract().kind != core::Contract::Kind::Operation) {
@@ -191,7 +197,8 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
   }
   auto checker = std::make_shared<ContractChecker<Request>>(std::move(contract));
   const std::string op = checker->contract().name;
-  boost::function<bool(Request&, Response&)> callback = [this, checker, validate, handle, requires_active, op](
+  boost::function<bool(Request&, Response&)> callback = [this, checker, validate, handle, requires_active, op,
+                                                          result_bindings](
                                                             Request& request, Response& response) {
     const ros::Time started = ros::Time::now();
     std::string refusal = requires_active ? whyNotActive("operation '" + op + "'") : "";
@@ -220,7 +227,8 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
         handle(request, response);
         response.success = true;
         event = events_.make(ComponentEvent::OPERATION, op, "ok");
-        event.effects = checker->groundEffects(request);
+        event.effects = result_bindings ? checker->groundEffects(request, result_bindings(request, response))
+                                        : checker->groundEffects(request);
       } catch (const core::ValidationError& e) {
         code = ResultCode::INVALID;
         response.success = false;

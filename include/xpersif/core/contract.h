@@ -115,6 +115,12 @@ class ContractChecker {
 
   Bindings bindings(const Input& input) const { return binder_ ? binder_(input) : Bindings{}; }
   std::vector<std::string> groundEffects(const Input& input) const { return ground(contract_.effects, bindings(input)); }
+  /// The same, with @p extra bindings beside the input's (what only the outcome knows); @p extra wins.
+  std::vector<std::string> groundEffects(const Input& input, const Bindings& extra) const {
+    Bindings all = bindings(input);
+    for (const auto& [name, value] : extra) all[name] = value;
+    return ground(contract_.effects, all);
+  }
   const Contract& contract() const { return contract_; }
 
  private:

@@ -15,7 +15,7 @@ namespace xpersif::core {
 
 /// What a stream is drawn for: each purpose gets its own, independent numbers.
 /// Friction: XPERSim's redraw of an object's friction per contact episode (world file `friction_redraw`).
-enum class StreamPurpose : std::uint64_t { Design = 1, Goal = 2, GoalPush = 3, Tidy = 4, Friction = 5 };
+enum class StreamPurpose : std::uint64_t { Design = 1, Goal = 2, GoalPush = 3, Tidy = 4, Friction = 5, Features = 6 };
 
 /// A well-mixed 64-bit seed for (seed, run, index, purpose) (SplitMix64 finalizer over the combined values):
 /// equal arguments give equal seeds; any difference gives unrelated ones.

@@ -40,6 +40,15 @@ struct FeatureInfo {
  */
 const std::vector<FeatureInfo>& availableFeatures();
 
+/**
+ * @brief The features that describe the object itself — what it looks like and its shape: hue, saturation,
+ *        color_r, color_g, color_b, size, area, elongation (in availableFeatures() order). FEATURESELECTION ranks
+ *        these as the learner's inputs. Not among them: x, y and orientation (where the object happens to be, which
+ *        the push frame already factors out), distance_to_robot, bearing_from_robot and distance_to_wall (the
+ *        moment's relations, not the object), and confidence (how well it was seen).
+ */
+const std::vector<std::string>& objectFeatureNames();
+
 /// FEATURESELECTION: which features to compute. Names are unique, in the order given.
 class FeatureSelection {
  public:

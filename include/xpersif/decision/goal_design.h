@@ -81,7 +81,8 @@ class GoalDesign : public Component {
   std::map<std::string, core::Footprint> footprints_;
   std::condition_variable modelled_;  // a new model was loaded
   /// Wait (bounded) until the loaded model has @p samples samples: a goal never depends on message timing.
-  void waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples);
+  void waitForSamples(std::unique_lock<std::mutex>& lock, std::uint32_t samples,
+                      const std::vector<std::string>& features);
   double min_push_ = 0, max_push_ = 0;  // the set-up's push distances, m
   double min_target_ = 0.05, max_target_ = 0.12, wall_clearance_ = 0.08, object_clearance_ = 0.06;
   std::vector<double> offsets_, distances_;
@@ -98,6 +99,7 @@ class GoalDesign : public Component {
   std::shared_ptr<core::PushModel> learner_;
   std::uint64_t model_run_ = 0;
   std::string model_topic_;
+  std::vector<std::string> model_features_;  // LearnedModel.features of learner_
   std::string model_problem_;  // why the last model could not be loaded
   std::set<std::string> immobile_;  // objects whose notion says does_not_move_when_pushed
 

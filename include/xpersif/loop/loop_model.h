@@ -23,6 +23,16 @@
  * is put back at a free spot (XPERSim's set_pose; a physical set-up would ask a person). Progress is published latched on
  * `~progress` (RunLoopFeedback).
  *
+ * Features learned from: once a run has its first N experiments (N = `~select_features_after`, or all of the run's
+ * experiments when it has fewer; 0: never) and goes on (a further experiment or a goal), LOOPMODEL asks FEATURESELECTION's `choose_features` to rank the object's
+ * own features on them (seeded by core::streamSeed(seed, run, N, Features)), passes the choice to MACHINELEARNING's
+ * `use_features` and waits until VISION's vectors carry the new selection; before that, at the start of every run, it
+ * sets the initial ones (FEATURESELECTION's `select_features` with none, MACHINELEARNING's `use_features` with none).
+ * Both are set again after any component was lost (a restarted one starts from its parameters), and a resumed run
+ * asks for the choice again, which the stored experiments make the same. A choice FEATURESELECTION cannot make
+ * (FAILED: too few experiments carry every candidate) leaves the initial features, with a warning. GOALDESIGN is
+ * asked for a model that learns from exactly these features.
+ *
  * Parameters: LoopModel::parameters() (its own, the Supervisor's and the lockstep client's; README, Parameter
  * reference), and the `world` file for the arena (embodiment_setup.h).
  */
@@ -84,6 +94,8 @@ class LoopModel : public Supervisor {
   const core::SetupCatalogue& catalogue();
   /// Samples of MACHINELEARNING's latest model (GOALDESIGN waits for the same model).
   std::uint32_t modelSamples();
+  /// What MACHINELEARNING learns from, as its use_features answered (GOALDESIGN waits for that model).
+  std::vector<std::string> learningFeatures();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why);
@@ -105,6 +117,17 @@ class LoopModel : public Supervisor {
   /// Once no component is lost any more (up to 180 s), the world back in @p state; "" or why not.
   std::string returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state);
   void onComponentLost(const SupervisedComponent& component, const std::string& reason) override;
+  /// Which features the run learns from, and how far that is applied (the run's thread only).
+  struct FeatureStage {
+    int applied = -1;  ///< -1: nothing yet in this run, 0: the initial features, 1: FEATURESELECTION's choice
+    std::uint64_t losses = 0;  ///< losses_ when it was applied
+  };
+  /// The initial features before the run's first `~select_features_after` experiments (of @p experiments), the
+  /// choice from then on, applied unless @p stage says it is (and no component was lost since); "" or why not.
+  std::string ensureFeatures(std::uint64_t run_id, std::uint64_t seed, std::uint32_t done, std::uint32_t experiments,
+                             FeatureStage& stage);
+  /// Until VISION's latest vector carries exactly @p selection for every object (20 s of wall time); "" or why not.
+  std::string waitForSelection(const std::vector<std::string>& selection);
 
   std::mutex mutex_;
   EmbodimentSetup setup_;
@@ -121,6 +144,8 @@ class LoopModel : public Supervisor {
   bool tidy_ = true, arrange_at_start_ = true;
   double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.02, learning_timeout_ = 20.0;
   int max_goal_pushes_ = 5;
+  std::uint32_t select_features_after_ = 16;
+  std::vector<std::string> learning_features_;  // what MACHINELEARNING learns from (use_features' answer)
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
