@@ -87,89 +87,74 @@ std::string ParameterSpec::describeRange() const {
   return "";
 }
 
-ParameterSpec flagParameter(std::string name, bool default_value, std::string meaning) {
+namespace {
+/// The fields every builder sets.
+ParameterSpec declared(std::string name, ParameterSpec::Type type, ParameterSpec::Value default_value,
+                       std::string meaning) {
   ParameterSpec spec;
   spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::Bool;
-  spec.default_value = default_value;
+  spec.type = type;
+  spec.default_value = std::move(default_value);
   spec.meaning = std::move(meaning);
   return spec;
 }
+}  // namespace
+
+ParameterSpec flagParameter(std::string name, bool default_value, std::string meaning) {
+  return declared(std::move(name), ParameterSpec::Type::Bool, default_value, std::move(meaning));
+}
 
 ParameterSpec intParameter(std::string name, int default_value, int min, int max, std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::Int;
-  spec.default_value = default_value;
+  ParameterSpec spec = declared(std::move(name), ParameterSpec::Type::Int, default_value, std::move(meaning));
   spec.min = min;
   spec.max = max;
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec numberParameter(std::string name, double default_value, double min, double max, std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::Double;
-  spec.default_value = default_value;
+  ParameterSpec spec = declared(std::move(name), ParameterSpec::Type::Double, default_value, std::move(meaning));
   spec.min = min;
   spec.max = max;
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec textParameter(std::string name, std::string default_value, std::string meaning,
                             std::vector<std::string> choices) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::String;
-  spec.default_value = std::move(default_value);
+  ParameterSpec spec =
+      declared(std::move(name), ParameterSpec::Type::String, std::move(default_value), std::move(meaning));
   spec.choices = std::move(choices);
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec namesParameter(std::string name, std::vector<std::string> default_value, std::size_t max_entries,
                              std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::StringList;
-  spec.default_value = std::move(default_value);
+  ParameterSpec spec =
+      declared(std::move(name), ParameterSpec::Type::StringList, std::move(default_value), std::move(meaning));
   spec.max = static_cast<double>(max_entries);
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec numbersParameter(std::string name, std::vector<double> default_value, double min, double max,
                                std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = ParameterSpec::Type::DoubleList;
-  spec.default_value = std::move(default_value);
+  ParameterSpec spec =
+      declared(std::move(name), ParameterSpec::Type::DoubleList, std::move(default_value), std::move(meaning));
   spec.min = min;
   spec.max = max;
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec derivedParameter(ParameterSpec::Type type, std::string name, std::string rule, double min, double max,
                                std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = type;
+  ParameterSpec spec = declared(std::move(name), type, {}, std::move(meaning));
   spec.default_text = std::move(rule);
   spec.min = min;
   spec.max = max;
-  spec.meaning = std::move(meaning);
   return spec;
 }
 
 ParameterSpec outputParameter(ParameterSpec::Type type, std::string name, std::string meaning) {
-  ParameterSpec spec;
-  spec.name = std::move(name);
-  spec.type = type;
+  ParameterSpec spec = declared(std::move(name), type, {}, std::move(meaning));
   spec.default_text = "—";
-  spec.meaning = std::move(meaning);
   spec.set_by_component = true;
   return spec;
 }
