@@ -8,7 +8,9 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -778,23 +780,58 @@ void PhysicsWorld::setVelocity(double linear, double angular) {
 
 namespace {
 
-/// The poses of the bodies a placement moves, and where they were, to put them back bit for bit.
-struct Placement {
-  std::vector<dBodyID> bodies;
-  std::vector<Eigen::Isometry3d> poses;
-  std::vector<BodyState> saved;
-};
-
-void moveTo(const Placement& p) {
-  for (std::size_t i = 0; i < p.bodies.size(); ++i) setPoseOf(p.bodies[i], p.poses[i]);
-}
-
-void moveBack(const Placement& p) {
-  for (std::size_t i = 0; i < p.bodies.size(); ++i) {
-    dBodySetPosition(p.bodies[i], p.saved[i].position[0], p.saved[i].position[1], p.saved[i].position[2]);
-    dBodySetQuaternion(p.bodies[i], p.saved[i].orientation);
+/// Copies of the geoms of the bodies a placement would move, at the poses they would have there, outside every
+/// space: the check collides these and never moves a body. (Moving a body and back is not bit for bit: ODE
+/// normalises the quaternion it is given, so a refused set_pose would change the world in its last bits.)
+class PlacementProbe {
+ public:
+  PlacementProbe() = default;
+  PlacementProbe(const PlacementProbe&) = delete;
+  PlacementProbe& operator=(const PlacementProbe&) = delete;
+  ~PlacementProbe() {
+    for (dGeomID g : geoms_) dGeomDestroy(g);
   }
-}
+
+  /// Each geom of body, as it would be with the body at world_from_body.
+  void add(dBodyID body, const Eigen::Isometry3d& world_from_body) {
+    for (dGeomID g = dBodyGetFirstGeom(body); g; g = dBodyGetNextGeom(g)) {
+      dGeomID copy = nullptr;
+      switch (dGeomGetClass(g)) {
+        case dBoxClass: {
+          dVector3 size;
+          dGeomBoxGetLengths(g, size);
+          copy = dCreateBox(nullptr, size[0], size[1], size[2]);
+          break;
+        }
+        case dCylinderClass: {
+          dReal radius, length;
+          dGeomCylinderGetParams(g, &radius, &length);
+          copy = dCreateCylinder(nullptr, radius, length);
+          break;
+        }
+        case dSphereClass: copy = dCreateSphere(nullptr, dGeomSphereGetRadius(g)); break;
+        default: throw std::logic_error("a body's geom of ODE class " + std::to_string(dGeomGetClass(g)) + " cannot be probed");
+      }
+      geoms_.push_back(copy);
+      const dReal* offset_position = dGeomGetOffsetPosition(g);
+      dQuaternion offset_q;
+      dGeomGetOffsetQuaternion(g, offset_q);
+      Eigen::Isometry3d body_from_geom = Eigen::Isometry3d::Identity();
+      body_from_geom.translation() = Eigen::Vector3d(offset_position[0], offset_position[1], offset_position[2]);
+      body_from_geom.linear() = Eigen::Quaterniond(offset_q[0], offset_q[1], offset_q[2], offset_q[3]).toRotationMatrix();
+      const Eigen::Isometry3d t = world_from_body * body_from_geom;
+      dGeomSetPosition(copy, t.translation().x(), t.translation().y(), t.translation().z());
+      const Eigen::Quaterniond q(t.rotation());
+      const dQuaternion dq = {q.w(), q.x(), q.y(), q.z()};
+      dGeomSetQuaternion(copy, dq);
+    }
+  }
+
+  const std::vector<dGeomID>& geoms() const { return geoms_; }
+
+ private:
+  std::vector<dGeomID> geoms_;
+};
 
 std::string point(const Eigen::Vector3d& p) {
   return "(" + describeNumber(p.x()) + ", " + describeNumber(p.y()) + ", " + describeNumber(p.z()) + ")";
@@ -826,7 +863,10 @@ PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& bod
   Impl& w = *impl_;
   initOde();
   const bool robot = body == spec_.robot.name;
-  Placement placement;
+  struct {
+    std::vector<dBodyID> bodies;
+    std::vector<Eigen::Isometry3d> poses;
+  } placement;
   if (robot) {
     // Every link moves rigidly with the root, the wheels keeping their place relative to the body.
     Eigen::Isometry3d target = pose;
@@ -841,36 +881,33 @@ PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& bod
     placement.poses.push_back(pose);
     if (on_floor) placement.poses.back().translation().z() = 0;
   }
-  for (dBodyID b : placement.bodies) {
-    BodyState s;
-    std::copy_n(dBodyGetPosition(b), 3, s.position);
-    std::copy_n(dBodyGetQuaternion(b), 4, s.orientation);
-    placement.saved.push_back(s);
-  }
-  auto extents = [&](double* lo, double* hi) {  // x, y, z of the moved geometry's bounding box
+  auto probeAtPlacement = [&] {
+    auto probe = std::make_unique<PlacementProbe>();
+    for (std::size_t i = 0; i < placement.bodies.size(); ++i) probe->add(placement.bodies[i], placement.poses[i]);
+    return probe;
+  };
+  auto extents = [](const PlacementProbe& probe, double* lo, double* hi) {  // x, y, z of its bounding box
     for (int k = 0; k < 3; ++k) {
       lo[k] = std::numeric_limits<double>::infinity();
       hi[k] = -lo[k];
     }
-    for (dBodyID b : placement.bodies) {
-      for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) {
-        dReal aabb[6];
-        dGeomGetAABB(g, aabb);
-        for (int k = 0; k < 3; ++k) {
-          lo[k] = std::min(lo[k], static_cast<double>(aabb[2 * k]));
-          hi[k] = std::max(hi[k], static_cast<double>(aabb[2 * k + 1]));
-        }
+    for (dGeomID g : probe.geoms()) {
+      dReal aabb[6];
+      dGeomGetAABB(g, aabb);
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], static_cast<double>(aabb[2 * k]));
+        hi[k] = std::max(hi[k], static_cast<double>(aabb[2 * k + 1]));
       }
     }
   };
   double lo[3], hi[3];
-  moveTo(placement);
-  extents(lo, hi);
+  std::unique_ptr<PlacementProbe> probe = probeAtPlacement();
+  extents(*probe, lo, hi);
   if (on_floor) {  // set down resting on the floor, as the world file's objects start
     const double lift = kRestClearance - lo[2];
     for (auto& t : placement.poses) t.translation().z() += lift;
-    moveTo(placement);
-    extents(lo, hi);
+    probe = probeAtPlacement();
+    extents(*probe, lo, hi);
   }
   const std::string what = robot ? "the robot " + body : body;
   const Eigen::Vector3d where = placement.poses.front().translation();
@@ -893,10 +930,6 @@ PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& bod
   } else {
     // Every other body's geometry, at its current pose: the robot's links, the objects. (Walls lie outside
     // the arena and the floor below it: the bounds above cover them.)
-    std::vector<dGeomID> moved;
-    for (dBodyID b : placement.bodies) {
-      for (dGeomID g = dBodyGetFirstGeom(b); g; g = dBodyGetNextGeom(g)) moved.push_back(g);
-    }
     double deepest = 0;
     dBodyID other = nullptr;
     const int n = dSpaceGetNumGeoms(w.space);
@@ -904,7 +937,7 @@ PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& bod
       dGeomID g = dSpaceGetGeom(w.space, i);
       dBodyID b = dGeomGetBody(g);
       if (!b || std::find(placement.bodies.begin(), placement.bodies.end(), b) != placement.bodies.end()) continue;
-      for (dGeomID m : moved) {
+      for (dGeomID m : probe->geoms()) {
         dContactGeom contact[kMaxContacts];
         const int hits = dCollide(m, g, kMaxContacts, contact, sizeof(dContactGeom));
         for (int k = 0; k < hits; ++k) {
@@ -922,7 +955,6 @@ PhysicsWorld::PlacementCheck PhysicsWorld::checkPlacement(const std::string& bod
     }
   }
   if (placed) *placed = placement.poses.front();
-  moveBack(placement);
   return check;
 }
 
