@@ -71,11 +71,18 @@ LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock
   call.request.participant = name_;
   call.request.role = sensor_ ? Lockstep::Request::SENSOR : Lockstep::Request::ACTOR;
   call.request.join = true;
-  if (!ros::service::call(service, call) || !call.response.success) {
-    throw std::runtime_error("cannot join the lockstep clock: " + call.response.message);
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    joining_ = true;
   }
+  const bool answered = ros::service::call(service, call) && call.response.success;
   lock.lock();
-  if (call.response.clock != clock_) latest_act_.reset();  // ticks of a forgotten clock mean nothing now
+  joining_ = false;
+  if (!answered) throw std::runtime_error("cannot join the lockstep clock: " + call.response.message);
+  // The simulator may go on to the ACT phase the new actor owes before its answer is read here: that tick, heard
+  // meanwhile on the tick thread, is kept (it was once dropped, the actor waited for a tick that had passed and
+  // was dropped 10 s later: a cold start's settling skipped, in 1 take of 10-20 on a loaded machine).
+  if (latest_act_clock_ != call.response.clock) latest_act_.reset();  // ticks of another clock mean nothing now
   joined_ = true;
   clock_ = call.response.clock;
   joined_at_ = call.response.tick;
@@ -182,6 +189,13 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
   bool rejoin = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (joining_ && !joined_) {  // the join's answer decides which clock counts: keep the newest ACT tick
+      if (message->phase == LockstepTick::ACT && message->clock >= latest_act_clock_) {
+        latest_act_ = tick;
+        latest_act_clock_ = message->clock;
+      }
+      return;
+    }
     if (!joined_ || message->clock < clock_) return;  // not taking part, or a tick of a clock that is gone
     const bool listed = std::find(message->participants.begin(), message->participants.end(), name_) !=
                         message->participants.end();
@@ -195,7 +209,10 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
       joined_ = false;
       rejoin = sensor_;  // ticks are heard on one thread: no other tick arrives while it joins
     } else {
-      if (message->phase == LockstepTick::ACT) latest_act_ = tick;
+      if (message->phase == LockstepTick::ACT) {
+        latest_act_ = tick;
+        latest_act_clock_ = message->clock;
+      }
       if (sensor_ && message->phase == LockstepTick::SENSE && listed) callback = on_tick_;
     }
   }

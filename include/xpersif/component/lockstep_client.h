@@ -101,6 +101,8 @@ class LockstepClient {
   std::uint64_t joined_at_ = 0;     // the tick it was joined at: older ticks may not list it yet
   bool left_ = false;               // leave() was called: a rejoin under way must not stay joined
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
+  std::uint64_t latest_act_clock_ = 0;  // the clock latest_act_ is of
+  bool joining_ = false;  // a join call is under way: its first ACT tick may come before its answer
   std::function<void(const Tick&)> on_tick_;
   ros::Publisher done_pub_;
   std::unique_ptr<ros::AsyncSpinner> tick_spinner_;  // serves tick_queue_ only
