@@ -268,8 +268,8 @@ CommandOutcome Component::invoke(InvokeServer::Context& context, InvokeResult& r
     if (found == invocables_.end()) {
       std::string names;
       for (const auto& e : invocables_) names += (names.empty() ? "" : ", ") + e.first;
-      result.message = "component " + name_ + " has no command or operation '" + goal.operator_name +
-                       "' that invoke runs; it runs: " + (names.empty() ? "none" : names);
+      result.message = "operator_name '" + goal.operator_name + "' is no command or operation that component " + name_ +
+                       " runs through invoke; it runs: " + (names.empty() ? "none" : names);
       return CommandOutcome::aborted(result.message);
     }
     entry = found->second;

@@ -16,11 +16,11 @@ std::string list(const std::vector<std::string>& names) {
   return out;
 }
 
-void checkNames(const std::string& op, const std::string& what, const std::vector<std::string>& names,
-                const std::vector<std::string>& values) {
+void checkNames(const std::string& op, const std::string& what, const std::string& values_field,
+                const std::vector<std::string>& names, const std::vector<std::string>& values) {
   if (names.size() != values.size()) {
     throw ValidationError(op + ": " + std::to_string(names.size()) + " " + what + " but " +
-                          std::to_string(values.size()) + " values");
+                          std::to_string(values.size()) + " " + values_field);
   }
   requireMaxSize(op + " " + what, names.size(), Invocation::kMaxEntries);
   std::set<std::string> seen;
@@ -41,8 +41,8 @@ Invocation::Invocation(std::string operator_name, std::vector<std::string> decla
       values_(std::move(values)),
       settings_(std::move(settings)),
       setting_values_(std::move(setting_values)) {
-  checkNames(operator_name_, "parameters", parameters_, values_);
-  checkNames(operator_name_, "settings", settings_, setting_values_);
+  checkNames(operator_name_, "parameters", "values", parameters_, values_);
+  checkNames(operator_name_, "settings", "setting_values", settings_, setting_values_);
   for (const auto& p : parameters_) {
     if (std::find(declared_.begin(), declared_.end(), p) == declared_.end()) {
       throw ValidationError(operator_name_ + ": " + (p.empty() ? "''" : p) + " is not a parameter of its contract (" +
