@@ -8,6 +8,9 @@ bad value: for floating-point numbers NaN, +-Inf, +-1e308; for integers their ty
 empty string, 100 000 characters and a name nothing has; for arrays none and 100 000 elements; for quaternions
 (0,0,0,0), (1,1,1,1) and (0,0,0,2). The other fields keep their defaults.
 
+Each component's ~invoke (the component model's generic command, not among its contracts) is tried the same way,
+naming the component's first contract, with check_only set, so that nothing runs whatever a bad value names.
+
 It checks that
   - every call is answered (a service, or an action's result within the timeout);
   - a non-finite number, a non-unit quaternion or an oversized string or array is never accepted: the answer is a
@@ -249,6 +252,11 @@ class Battery:
             contracts = rospy.ServiceProxy(component + "/get_contracts", GetContracts)(name="").contracts
             for contract in contracts:
                 self.battery(component, contract)
+            # ~invoke is part of the component model, not a contract: every component has it. Its base goal names the
+            # first contract, so that bad parameters and values reach the binding checks.
+            from xpersif.msg import Contract
+            self.battery(component, Contract(name="invoke", kind="command", interface_type="xpersif/InvokeAction"),
+                         contracts[0].name if contracts else "")
         for component in components:
             state = self.alive(component)
             if state is None:
@@ -256,7 +264,7 @@ class Battery:
         self.write()
         return 1 if self.failures else 0
 
-    def battery(self, component, contract):
+    def battery(self, component, contract, invoke_operator=""):
         name = component + "/" + contract.name
         kind = contract.kind
         short = component[len(self.ns) + 1:] + "/" + contract.name
@@ -285,6 +293,9 @@ class Battery:
                 self.failures.append("%s: the action server is not there" % name)
                 return
             make = lambda: with_first_elements(goal_class(), goal_class)  # noqa: E731
+            if contract.name == "invoke":  # only bind and check: whatever a bad value names, nothing runs
+                make = lambda: with_first_elements(goal_class(operator_name=invoke_operator, check_only=True),  # noqa: E731
+                                                   goal_class)
             cases = [(p, t, a, c) for p, t, a, c in fields(goal_class)]
             base_state, _ = self.call_command(client, make())
             base_ok = base_state == GoalStatus.SUCCEEDED

@@ -23,6 +23,21 @@ Component::Component(ros::NodeHandle nh, ros::NodeHandle private_nh, std::string
       },
       [this] { onShutdown(); },
   });
+  core::Contract declared;
+  declared.name = "invoke";
+  declared.kind = core::Contract::Kind::Command;
+  declared.interface_type = "xpersif/InvokeAction";
+  declared.description = "run a contracted command or operation from its parameters bound to values as text";
+  declared.parameters = {"?operator"};
+  ContractChecker<InvokeGoal> invoke_contract(declared);
+  invoke_contract.bind([](const InvokeGoal& goal) {
+    return core::Bindings{{"?operator", goal.operator_name.substr(0, 128)}};
+  });
+  // No readiness of its own: the command or operation it runs says whether it needs the component ACTIVE.
+  invoke_ = std::make_unique<InvokeServer>(
+      pnh_, std::move(invoke_contract), InvokeServer::Validate(),
+      [this](InvokeServer::Context& context, InvokeResult& result) { return invoke(context, result); }, events_,
+      InvokeServer::Readiness());
 }
 
 Component::~Component() { halt(); }
@@ -60,6 +75,7 @@ void Component::start() {
   {
     std::lock_guard<std::mutex> lock(contracts_mutex_);
     for (auto& command : commands_) command->start();
+    invoke_->start();
     started_ = true;
   }
   publishStatus();
@@ -131,6 +147,7 @@ void Component::stopCommands(const std::string& reason) {
   {
     std::lock_guard<std::mutex> lock(contracts_mutex_);
     for (auto& c : commands_) commands.push_back(c.get());
+    commands.push_back(invoke_.get());  // last: it waits for the command it runs, which ends first
   }
   for (auto* c : commands) c->stopRunning(reason);
 }
@@ -224,6 +241,55 @@ bool Component::onGetContracts(GetContracts::Request& request, GetContracts::Res
   event.request = toYaml(request);
   events_.publish(event);
   return true;
+}
+
+void Component::addInvocable(const core::Contract& contract, InvokeRunner run) {
+  std::lock_guard<std::mutex> lock(contracts_mutex_);
+  invocables_[contract.name] = Invocable{contract, std::move(run)};
+}
+
+std::vector<std::string> Component::invocable() const {
+  std::lock_guard<std::mutex> lock(contracts_mutex_);
+  std::vector<std::string> names;
+  for (const auto& entry : invocables_) names.push_back(entry.first);
+  return names;
+}
+
+CommandOutcome Component::invoke(InvokeServer::Context& context, InvokeResult& result) {
+  const InvokeGoal& goal = context.goal();
+  result.code = ResultCode::INVALID;
+  if (const std::string why = core::checkMaxLength("operator_name", goal.operator_name, 128); !why.empty()) {
+    return CommandOutcome::aborted(result.message = why);
+  }
+  Invocable entry;
+  {
+    std::lock_guard<std::mutex> lock(contracts_mutex_);
+    const auto found = invocables_.find(goal.operator_name);
+    if (found == invocables_.end()) {
+      std::string names;
+      for (const auto& e : invocables_) names += (names.empty() ? "" : ", ") + e.first;
+      result.message = "operator_name '" + goal.operator_name + "' is no command or operation that component " + name_ +
+                       " runs through invoke; it runs: " + (names.empty() ? "none" : names);
+      return CommandOutcome::aborted(result.message);
+    }
+    entry = found->second;
+  }
+  result.interface_type = entry.contract.interface_type;
+  CommandOutcome outcome;
+  try {
+    const core::Invocation invocation(goal.operator_name, entry.contract.parameters, goal.parameters, goal.values,
+                                      goal.settings, goal.setting_values);
+    result.code = ResultCode::OK;  // the interface sets its own code when it refuses or fails
+    outcome = entry.run(context, invocation, result);
+  } catch (const core::ValidationError& e) {  // the binder: bad, missing or unknown values
+    result.code = ResultCode::INVALID;
+    return CommandOutcome::aborted(result.message = e.what());
+  } catch (const std::exception& e) {
+    result.code = ResultCode::FAILED;
+    return CommandOutcome::aborted(result.message = "'" + goal.operator_name + "' failed: " + e.what());
+  }
+  if (outcome.code == CommandOutcome::Code::Preempted) result.code = ResultCode::FAILED;
+  return outcome;
 }
 
 std::string Component::whyNotActive(const std::string& what) const {

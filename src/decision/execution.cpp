@@ -9,7 +9,6 @@
 #include <thread>
 
 #include "xpersif/GetContracts.h"
-#include "xpersif/GetFeatures.h"
 #include "xpersif/ResultCode.h"
 #include "xpersif/component/action_wait.h"
 #include "xpersif/decision/decision_common.h"
@@ -19,64 +18,12 @@ namespace xpersif {
 
 namespace {
 
-const std::string kPush = "xpersif/PushAction", kGoTo = "xpersif/GoToPoseAction", kTurn = "xpersif/TurnToAction",
-                  kFeatures = "xpersif/GetFeatures";
-
 /// The value of @p parameter in @p step, or nullptr.
 const std::string* valueOf(const PlanStep& step, const std::string& parameter) {
   for (std::size_t i = 0; i < step.parameters.size() && i < step.values.size(); ++i) {
     if (step.parameters[i] == parameter) return &step.values[i];
   }
   return nullptr;
-}
-
-double parseNumber(const std::string& field, const std::string& text) {
-  std::size_t used = 0;
-  double value = NAN;
-  try {
-    value = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || text.find_first_not_of(" \t", used) != std::string::npos) {
-    throw core::ValidationError(field + " is '" + text + "', not a number");
-  }
-  core::requireFinite(field, value);
-  return value;
-}
-
-/// The value of a needed parameter; throws ValidationError naming the step field when it is missing or open.
-std::string need(const std::string& field, const PlanStep& step, const std::string& parameter) {
-  const std::string* value = valueOf(step, parameter);
-  if (!value) throw core::ValidationError(field + " has no parameter " + parameter + ", which " + step.interface_type + " needs");
-  if (value->empty() || (*value)[0] == '?') {
-    throw core::ValidationError(field + " leaves " + parameter + " open ('" + *value + "'); bind it before executing");
-  }
-  return *value;
-}
-
-PushGoal pushGoal(const std::string& field, const PlanStep& step, const std::string& pose_source) {
-  PushGoal g;
-  g.object = need(field, step, "?object");
-  g.side = need(field, step, "?side");
-  g.offset = parseNumber(field + " ?offset", need(field, step, "?offset"));
-  g.distance = parseNumber(field + " ?distance", need(field, step, "?distance"));
-  g.pose_source = pose_source;
-  return g;
-}
-
-GoToPoseGoal goToGoal(const std::string& field, const PlanStep& step, const std::string& pose_source) {
-  GoToPoseGoal g;
-  g.target = parsePose(field + " ?pose", need(field, step, "?pose"));
-  g.pose_source = pose_source;
-  return g;
-}
-
-TurnToGoal turnGoal(const std::string& field, const PlanStep& step, const std::string& pose_source) {
-  TurnToGoal g;
-  g.heading = parseNumber(field + " ?heading", need(field, step, "?heading"));
-  g.pose_source = pose_source;
-  return g;
 }
 
 /// A step as the core planner names it ("component/operator", its bound values).
@@ -112,39 +59,54 @@ std::string stepText(const PlanStep& step) {
 
 }  // namespace
 
-const std::vector<std::string>& executableInterfaces() {
-  static const std::vector<std::string> types{kPush, kGoTo, kTurn, kFeatures};
-  return types;
-}
-
-geometry_msgs::Pose2D parsePose(const std::string& field, const std::string& text) {
-  std::string body = text;
-  body.erase(std::remove_if(body.begin(), body.end(), [](char c) { return c == '(' || c == ')'; }), body.end());
-  std::vector<std::string> parts;
-  std::stringstream in(body);
-  for (std::string part; std::getline(in, part, ',');) parts.push_back(part);
-  if (parts.size() != 3) throw core::ValidationError(field + " is '" + text + "', not a pose \"(x, y, yaw)\"");
-  geometry_msgs::Pose2D pose;
-  pose.x = parseNumber(field + " x", parts[0]);
-  pose.y = parseNumber(field + " y", parts[1]);
-  pose.theta = parseNumber(field + " yaw", parts[2]);
-  return pose;
-}
-
 std::string checkStep(const std::string& field, const PlanStep& step) {
   try {
     core::requireIdentifier(field + ".component", step.component);
     core::requireIdentifier(field + ".operator_name", step.operator_name);
+    core::requireMaxLength(field + ".interface_type", step.interface_type, 128);
     if (step.parameters.size() != step.values.size()) {
       throw core::ValidationError(field + " has " + std::to_string(step.parameters.size()) + " parameters but " +
                                   std::to_string(step.values.size()) + " values");
     }
-    core::throwIfInvalid(core::checkOneOf(field + ".interface_type", step.interface_type, executableInterfaces()));
-    if (step.interface_type == kPush) pushGoal(field, step, "");
-    if (step.interface_type == kGoTo) goToGoal(field, step, "");
-    if (step.interface_type == kTurn) turnGoal(field, step, "");
+    core::requireMaxSize(field + ".parameters", step.parameters.size(), core::Invocation::kMaxEntries);
+    for (std::size_t i = 0; i < step.parameters.size(); ++i) {
+      const std::string& parameter = step.parameters[i];
+      const std::string& value = step.values[i];
+      core::requireMaxLength(field + ".parameters[" + std::to_string(i) + "]", parameter, 128);
+      core::requireMaxLength(field + " " + parameter, value, core::Invocation::kMaxValueLength);
+      if (value.empty() || value[0] == '?') {
+        throw core::ValidationError(field + " leaves " + parameter + " open ('" + value + "'); bind it before executing");
+      }
+    }
   } catch (const std::exception& e) {
     return e.what();
+  }
+  return "";
+}
+
+std::string checkStepContract(const std::string& field, const PlanStep& step,
+                              const std::vector<core::Contract>& contracts) {
+  const core::Contract* contract = nullptr;
+  std::string names;
+  for (const auto& c : contracts) {
+    if (c.name == step.operator_name) contract = &c;
+    names += (names.empty() ? "" : ", ") + c.name;
+  }
+  if (!contract) {
+    return field + ": component " + step.component + " offers no command or operation '" + step.operator_name +
+           "' (its contracts: " + (names.empty() ? "none" : names) + ")";
+  }
+  if (!step.interface_type.empty() && step.interface_type != contract->interface_type) {
+    return field + ".interface_type is '" + step.interface_type + "', but " + step.component + "/" +
+           step.operator_name + " is a " + contract->interface_type;
+  }
+  for (const auto& parameter : step.parameters) {
+    if (std::find(contract->parameters.begin(), contract->parameters.end(), parameter) == contract->parameters.end()) {
+      std::string declared;
+      for (const auto& p : contract->parameters) declared += (declared.empty() ? "" : ", ") + p;
+      return field + " binds " + parameter + ", which is not a parameter of " + step.component + "/" +
+             step.operator_name + " (" + (declared.empty() ? "none" : declared) + ")";
+    }
   }
   return "";
 }
@@ -159,8 +121,8 @@ Execution::Execution(ros::NodeHandle nh, ros::NodeHandle private_nh)
   declared.parameters = {"?steps"};
   declared.preconditions = {
       {"executable(?steps)",
-       "every step must name a component and operator, an interface type EXECUTION runs (push, go_to_pose, "
-       "turn_to actions; get_features service) and a well-formed value for each parameter it needs"}};
+       "every step must name a component and operator and bind each of its parameters to a value (no '?'); when "
+       "the goal starts, each step is checked against its component's contract and binder (~invoke)"}};
   declared.effects = {"executed(?steps)"};
   ContractChecker<ExecutePlanGoal> contract(declared);
   contract
@@ -208,8 +170,8 @@ const core::ParameterTable& Execution::parameters() {
        core::numberParameter("fresh_timeout", 5.0, 0.0, 600.0,
                              "s to wait for a feature vector newer than the step's request"),
        core::numberParameter("server_timeout", 10.0, 0.01, 600.0,
-                             "s of wall time to wait for a step's action server or service"),
-       core::numberParameter("step_timeout", 300.0, 1.0, 36000.0, "s a command step may take"),
+                             "s of wall time to wait for a component's invoke or get_contracts"),
+       core::numberParameter("step_timeout", 300.0, 1.0, 36000.0, "s a step may take"),
        core::intParameter("max_replans", 2, 0, 10, "replans per goal after a step fails for good"),
        core::intParameter("max_depth", 8, 1, 64, "the longest replanned plan, in steps"),
        core::namesParameter("components", {"observation", "vision", "manipulation", "relocation"}, 64,
@@ -246,36 +208,44 @@ void Execution::onShutdown() {
   clients_.clear();
 }
 
-template <class Action>
-actionlib::SimpleActionClient<Action>& Execution::client(const std::string& action) {
+actionlib::SimpleActionClient<InvokeAction>& Execution::invokeClient(const std::string& component) {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto& slot = clients_[action];
-  if (!slot) {
-    // Its own callback queue and spinner thread: results arrive whatever the manager's threads do.
-    slot = std::make_shared<actionlib::SimpleActionClient<Action>>(nodeHandle(), action, true);
-  }
-  return *std::static_pointer_cast<actionlib::SimpleActionClient<Action>>(slot);
+  auto& slot = clients_[component];
+  // Its own callback queue and spinner thread: results arrive whatever the manager's threads do.
+  if (!slot) slot = std::make_shared<actionlib::SimpleActionClient<InvokeAction>>(nodeHandle(), component + "/invoke", true);
+  return *slot;
 }
 
-template <class Action, class Goal, class ResultPtr>
-std::string Execution::runAction(ExecutePlan::Context& context, const std::string& action, const Goal& goal,
-                                 bool& cancelled, ResultPtr* result) {
-  auto& c = client<Action>(action);
-  double server_timeout, step_timeout;
+std::string Execution::invokeStep(ExecutePlan::Context& context, const PlanStep& step, bool check_only,
+                                  bool& cancelled, std::uint8_t& code, InvokeResultConstPtr* result) {
+  auto& c = invokeClient(step.component);
+  const std::string action = step.component + "/invoke";
+  code = ResultCode::FAILED;
+  double server_timeout, step_timeout, max_age;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     server_timeout = server_timeout_;
     step_timeout = step_timeout_;
+    max_age = max_age_;
   }
   const ros::WallTime server_deadline = ros::WallTime::now() + ros::WallDuration(server_timeout);
   while (!c.isServerConnected()) {
     if (context.stopRequested()) return (cancelled = context.cancelRequested()) ? "cancelled" : "stopping";
     if (ros::WallTime::now() > server_deadline) {
+      code = ResultCode::UNAVAILABLE;
       return "the action server " + nodeHandle().resolveName(action) + " did not connect within " +
              core::describeNumber(server_timeout) + " s";
     }
     c.waitForServer(ros::Duration(0.05));
   }
+  InvokeGoal goal;
+  goal.operator_name = step.operator_name;
+  goal.parameters = step.parameters;
+  goal.values = step.values;
+  // Offered to every interface; a binder reads those it knows (commands: pose_source; observations: max_age).
+  goal.settings = {"pose_source", "max_age"};
+  goal.setting_values = {context.goal().pose_source, core::describeNumber(max_age)};
+  goal.check_only = check_only;
   c.sendGoal(goal);
   const ros::Time deadline = ros::Time::now() + ros::Duration(step_timeout);
   ros::WallTime last_connected = ros::WallTime::now();
@@ -300,78 +270,104 @@ std::string Execution::runAction(ExecutePlan::Context& context, const std::strin
   }
   const actionlib::SimpleClientGoalState state = c.getState();
   *result = c.getResult();
-  if (state == actionlib::SimpleClientGoalState::SUCCEEDED) return "";
-  const std::string text = state.getText();
+  if (state == actionlib::SimpleClientGoalState::SUCCEEDED) {
+    code = ResultCode::OK;
+    return "";
+  }
+  // The component's code decides (a rejected invoke goal, e.g. a busy one, carries its code too).
+  if (*result && (*result)->code != ResultCode::OK) code = (*result)->code;
+  const std::string text = *result && !(*result)->message.empty() ? (*result)->message : state.getText();
   return state.toString() + (text.empty() ? "" : ": " + text);
 }
 
-std::string Execution::getFeatures(ExecutePlan::Context& context, const std::string& service,
-                                   ExecutePlanResult& result) {
-  double max_age, fresh_timeout, server_timeout;
+std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& step, bool is_command,
+                               ExecutePlanResult& result, bool& cancelled, std::uint8_t& code) {
+  double fresh_timeout;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    max_age = max_age_;
     fresh_timeout = fresh_timeout_;
-    server_timeout = server_timeout_;
-  }
-  const std::string resolved = nodeHandle().resolveName(service);
-  if (!ros::service::waitForService(resolved, ros::Duration(server_timeout))) {
-    return "the service " + resolved + " is not available";
   }
   const ros::Time deadline = ros::Time::now() + ros::Duration(fresh_timeout);
-  std::string why;
   while (true) {
-    GetFeatures call;
-    call.request.max_age = max_age;
-    if (!ros::service::call(resolved, call)) {
-      why = "the call of " + resolved + " failed";
-    } else if (!call.response.success) {
-      why = resolved + " refused: " + call.response.message;
-    } else if (call.response.features.header.stamp <= observe_after_) {
-      why = "the feature vector of " + resolved + " (stamp " +
-            core::describeNumber(call.response.features.header.stamp.toSec()) +
-            " s) is not newer than the plan's start or its last command's end (" +
-            core::describeNumber(observe_after_.toSec()) + " s)";
-    } else {
-      result.observations.push_back(call.response.features);
+    InvokeResultConstPtr r;
+    std::string why = invokeStep(context, step, false, cancelled, code, &r);
+    // The scene may have changed even when a command failed: later observations must be newer.
+    if (is_command) observe_after_ = ros::Time::now();
+    if (!why.empty()) return why;
+    // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
+    // behind the camera, so its latest vector may be older. Such a step is repeated until it is newer.
+    for (const auto& features : r->features) {
+      if (features.header.stamp <= observe_after_) {
+        why = "the feature vector of " + step.component + "/" + step.operator_name + " (stamp " +
+              core::describeNumber(features.header.stamp.toSec()) +
+              " s) is not newer than the plan's start or its last command's end (" +
+              core::describeNumber(observe_after_.toSec()) + " s)";
+      }
+    }
+    if (why.empty()) {
+      result.observations.insert(result.observations.end(), r->features.begin(), r->features.end());
+      for (std::size_t k = 0; k < r->outputs.size() && k < r->output_values.size(); ++k) {
+        if (r->outputs[k] != "robot_pose") continue;
+        const core::Pose2D pose = core::parsePose("robot_pose", r->output_values[k]);
+        geometry_msgs::Pose2D msg;
+        msg.x = pose.x;
+        msg.y = pose.y;
+        msg.theta = pose.yaw;
+        result.robot_poses.push_back(msg);
+      }
       return "";
     }
-    if (context.stopRequested() || ros::Time::now() > deadline) return why;
+    if (context.stopRequested() || ros::Time::now() > deadline) {
+      code = ResultCode::FAILED;
+      return why;
+    }
     // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
 
-std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& step, ExecutePlanResult& result,
-                               bool& cancelled) {
-  const std::string name = step.component + "/" + step.operator_name;
-  const std::string& source = context.goal().pose_source;
-  try {
-    if (step.interface_type == kFeatures) return getFeatures(context, name, result);
-    std::string why;
-    geometry_msgs::Pose2D final_pose;
-    if (step.interface_type == kPush) {
-      PushResultConstPtr r;
-      why = runAction<PushAction>(context, name, pushGoal("step", step, source), cancelled, &r);
-      if (r) final_pose = r->robot_final;
-    } else if (step.interface_type == kGoTo) {
-      GoToPoseResultConstPtr r;
-      why = runAction<GoToPoseAction>(context, name, goToGoal("step", step, source), cancelled, &r);
-      if (r) final_pose = r->final_pose;
-    } else if (step.interface_type == kTurn) {
-      TurnToResultConstPtr r;
-      why = runAction<TurnToAction>(context, name, turnGoal("step", step, source), cancelled, &r);
-      if (r) final_pose = r->final_pose;
-    } else {
-      return "interface type '" + step.interface_type + "' cannot be executed";
-    }
-    // The scene may have changed even when the command failed: later observations must be newer.
-    observe_after_ = ros::Time::now();
-    if (why.empty()) result.robot_poses.push_back(final_pose);
-    return why;
-  } catch (const std::exception& e) {
-    return e.what();
+std::vector<core::Contract> Execution::readContracts(ExecutePlan::Context& context, const std::string& component) {
+  double server_timeout;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    server_timeout = server_timeout_;
   }
+  if (context.stopRequested()) throw core::UnavailableError("stopped while reading the contracts");
+  const std::string service = nodeHandle().resolveName(component + "/get_contracts");
+  GetContracts call;
+  if (!ros::service::waitForService(service, ros::Duration(server_timeout)) || !ros::service::call(service, call) ||
+      !call.response.success) {
+    throw core::UnavailableError("the contracts of " + component + " could not be read from " + service);
+  }
+  std::vector<core::Contract> contracts;
+  for (const auto& c : call.response.contracts) contracts.push_back(fromContractMsg(c));
+  return contracts;
+}
+
+Execution::StepCheck Execution::checkSteps(ExecutePlan::Context& context, const std::string& label,
+                                           const std::vector<PlanStep>& steps, Contracts& contracts) {
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const PlanStep& step = steps[i];
+    const std::string field = label + "[" + std::to_string(i) + "]";
+    std::string why = checkStep(field, step);
+    if (!why.empty()) return {i, ResultCode::INVALID, why};
+    if (!contracts.count(step.component)) {
+      try {
+        contracts[step.component] = readContracts(context, step.component);
+      } catch (const std::exception& e) {
+        return {i, ResultCode::UNAVAILABLE, e.what()};
+      }
+    }
+    why = checkStepContract(field, step, contracts[step.component]);
+    if (!why.empty()) return {i, ResultCode::INVALID, why};
+    // The component's binder checks the values (without running anything): a bad one is found before any step runs.
+    bool cancelled = false;
+    std::uint8_t code = ResultCode::OK;
+    InvokeResultConstPtr r;
+    why = invokeStep(context, step, true, cancelled, code, &r);
+    if (!why.empty()) return {i, code, field + " " + step.component + "/" + step.operator_name + ": " + why};
+  }
+  return {steps.size(), ResultCode::OK, ""};
 }
 
 std::vector<core::Contract> Execution::readOperators(ExecutePlan::Context& context) {
@@ -404,6 +400,7 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
   // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
   // behind the camera, so its latest vector may be older (under load, a frame from before the scene was arranged).
   observe_after_ = ros::Time::now();
+  result.replans = 0;
   result.code = ResultCode::FAILED;
   std::vector<PlanStep> steps = goal.steps;
   int max_replans, max_depth;
@@ -417,18 +414,38 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
   core::PlanningProblem problem;
   problem.goal = goal.goal;
   problem.max_depth = static_cast<std::size_t>(max_depth);
+  // Every step against its component's contract and binder before any runs.
+  Contracts contracts;
+  const auto refuse = [&](const StepCheck& check, const std::string& what) {
+    result.success = false;
+    result.failed_step = static_cast<std::uint32_t>(check.index);
+    result.code = check.code;
+    if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled while checking " + what);
+    return CommandOutcome::aborted(result.message = what + " cannot run: " + check.why);
+  };
+  if (const StepCheck check = checkSteps(context, "steps", steps, contracts); !check.why.empty()) {
+    return refuse(check, "the plan");
+  }
+  const auto isCommand = [&](const PlanStep& step) {
+    for (const auto& c : contracts[step.component]) {
+      if (c.name == step.operator_name) return c.kind == core::Contract::Kind::Command;
+    }
+    return false;
+  };
   std::vector<PlanStep> succeeded;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const PlanStep& step = steps[i];
     const std::string text = stepText(step);
+    const bool is_command = isCommand(step);
     std::string why;
+    std::uint8_t code = ResultCode::OK;
     for (std::uint32_t attempt = 0; attempt <= goal.retries; ++attempt) {
       bool cancelled = false;
       ExecutePlanFeedback feedback;
       feedback.step = static_cast<std::uint32_t>(i);
       feedback.status = "running " + text + (attempt ? " (retry " + std::to_string(attempt) + ")" : "");
       context.publishFeedback(feedback);
-      why = runStep(context, step, result, cancelled);
+      why = runStep(context, step, is_command, result, cancelled, code);
       if (cancelled || context.cancelRequested()) {
         result.success = false;
         result.failed_step = static_cast<std::uint32_t>(i);
@@ -441,6 +458,8 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
       feedback.status = why.empty() ? "done " + text : "failed " + text + ": " + why;
       context.publishFeedback(feedback);
       if (why.empty()) break;
+      // A bad request stays bad: no retry, no replan (decided on the component's code, not its words).
+      if (code == ResultCode::INVALID) break;
       ROS_WARN_STREAM(name() << ": step " << i << " " << text << " failed (attempt " << attempt + 1 << "): " << why);
     }
     if (why.empty()) {
@@ -451,6 +470,10 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
     result.failed_step = static_cast<std::uint32_t>(i);
     result.message = "step " + std::to_string(i) + " " + text + " failed after " + std::to_string(goal.retries + 1) +
                      (goal.retries ? " attempts: " : " attempt: ") + why;
+    if (code == ResultCode::INVALID) {
+      result.code = ResultCode::INVALID;
+      return CommandOutcome::aborted(result.message);
+    }
     if (goal.goal.empty()) return CommandOutcome::aborted(result.message);
     if (result.replans >= static_cast<std::uint32_t>(max_replans)) {
       return CommandOutcome::aborted(result.message += "; no replan left (~max_replans " +
@@ -473,9 +496,9 @@ CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResu
     }
     std::vector<PlanStep> next = toStepMessages(replanned.steps, problem.operators);
     fillOpenValues(next, steps);
-    for (std::size_t k = 0; k < next.size(); ++k) {
-      const std::string unfit = checkStep("replanned step " + std::to_string(k), next[k]);
-      if (!unfit.empty()) return CommandOutcome::aborted(result.message += "; the new plan cannot run: " + unfit);
+    if (const StepCheck check = checkSteps(context, "replanned steps", next, contracts); !check.why.empty()) {
+      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled while replanning");
+      return CommandOutcome::aborted(result.message += "; the new plan cannot run: " + check.why);
     }
     std::string plan_text;
     for (const auto& s : next) plan_text += (plan_text.empty() ? "" : ", ") + stepText(s);

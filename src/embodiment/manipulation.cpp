@@ -98,7 +98,23 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
         core::requireMaxLength("goal.object", g.object, 128);
         core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source));
       },
-      [this](Push::Context& context, PushResult& result) { return push(context, result); });
+      [this](Push::Context& context, PushResult& result) { return push(context, result); }, {pushGoalFrom, reportPush});
+}
+
+PushGoal pushGoalFrom(const core::Invocation& invocation) {
+  PushGoal goal;
+  goal.object = invocation.text("?object");
+  goal.side = invocation.text("?side");
+  goal.offset = invocation.number("?offset");
+  goal.distance = invocation.number("?distance");
+  goal.pose_source = invocation.setting("pose_source", "");
+  return goal;
+}
+
+void reportPush(const PushResult& result, InvokeResult& out) {
+  addOutput(out, "robot_pose", describePose(result.robot_final.x, result.robot_final.y, result.robot_final.theta));
+  addOutput(out, "blocked", result.blocked ? "true" : "false");
+  addOutput(out, "pushed", core::describeNumber(result.pushed));
 }
 
 const core::ParameterTable& Manipulation::parameters() {

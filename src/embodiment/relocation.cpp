@@ -77,7 +77,8 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   addCommand<GoToPoseAction>(
       go_contract,
       [](const GoToPoseGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
-      [this](GoToPose::Context& context, GoToPoseResult& result) { return goTo(context, result); });
+      [this](GoToPose::Context& context, GoToPoseResult& result) { return goTo(context, result); },
+      {goToPoseGoalFrom, reportGoToPose});
 
   // ---- turn_to -----------------------------------------------------------------------------------
   core::Contract turn;
@@ -98,7 +99,8 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
       });
   addCommand<TurnToAction>(
       turn_contract, [](const TurnToGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
-      [this](TurnTo::Context& context, TurnToResult& result) { return turnTo(context, result); });
+      [this](TurnTo::Context& context, TurnToResult& result) { return turnTo(context, result); },
+      {turnToGoalFrom, reportTurnTo});
 
   // ---- operations ----------------------------------------------------------------------------------
   core::Contract set_max;
@@ -125,7 +127,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
         response.linear = limits_.max_linear;
         response.angular = limits_.max_angular;
       },
-      false);
+      false, nullptr, {setMaxVelocityRequestFrom, nullptr});
 
   core::Contract stop;
   stop.name = "stop";
@@ -140,7 +142,39 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
         publishVelocity({});
         response.message = "stopped";
       },
-      false);
+      false, nullptr, {[](const core::Invocation&) { return std_srvs::Trigger::Request(); }, nullptr});
+}
+
+GoToPoseGoal goToPoseGoalFrom(const core::Invocation& invocation) {
+  GoToPoseGoal goal;
+  const core::Pose2D pose = invocation.pose("?pose");
+  goal.target.x = pose.x;
+  goal.target.y = pose.y;
+  goal.target.theta = pose.yaw;
+  goal.pose_source = invocation.setting("pose_source", "");
+  return goal;
+}
+
+TurnToGoal turnToGoalFrom(const core::Invocation& invocation) {
+  TurnToGoal goal;
+  goal.heading = invocation.number("?heading", -core::kMaxHeading, core::kMaxHeading);
+  goal.pose_source = invocation.setting("pose_source", "");
+  return goal;
+}
+
+SetMaxVelocity::Request setMaxVelocityRequestFrom(const core::Invocation& invocation) {
+  SetMaxVelocity::Request request;
+  request.linear = invocation.number("?linear");
+  request.angular = invocation.number("?angular");
+  return request;
+}
+
+void reportGoToPose(const GoToPoseResult& result, InvokeResult& out) {
+  addOutput(out, "robot_pose", describePose(result.final_pose.x, result.final_pose.y, result.final_pose.theta));
+}
+
+void reportTurnTo(const TurnToResult& result, InvokeResult& out) {
+  addOutput(out, "robot_pose", describePose(result.final_pose.x, result.final_pose.y, result.final_pose.theta));
 }
 
 const core::ParameterTable& Relocation::parameters() {

@@ -691,6 +691,10 @@ void LoopModel::runExperiment(const Experiment& experiment, const std::string& d
   goal.steps = plan.response.steps;
   goal.pose_source = pose_source_;
   goal.retries = static_cast<std::uint32_t>(retries_);
+  // What the plan reaches and what held when it was made: a step that still fails is replanned around
+  // (EXECUTION's ~max_replans).
+  goal.goal = plan.request.goal;
+  goal.state = plan.request.state;
   spending.emplace(wall_spent_, "execution");
   const std::uint64_t losses_before = losses_;
   execution.sendGoal(goal);

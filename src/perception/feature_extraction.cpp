@@ -11,7 +11,8 @@ FeatureExtraction::FeatureExtraction(ros::NodeHandle nh, ros::NodeHandle private
     : Component(std::move(nh), std::move(private_nh), "xpersif/FeatureExtractionNodelet") {
   addOperation<GetFeatures>(
       features_.contract("feature extraction", "no image has been processed yet"), LatestFeatures::validate,
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); },
+      true, nullptr, LatestFeatures::binder());
 }
 
 const core::ParameterTable& FeatureExtraction::parameters() {

@@ -33,6 +33,17 @@ void LatestFeatures::validate(const GetFeatures::Request& request) {
   core::requireInRange("max_age", request.max_age, 0.0, 1e6);
 }
 
+Binder<GetFeatures::Request, GetFeatures::Response> LatestFeatures::binder() {
+  return {[](const core::Invocation& invocation) {
+            GetFeatures::Request request;
+            request.max_age = invocation.settingNumber("max_age", 0.0, 0.0, 1e6);
+            return request;
+          },
+          [](const GetFeatures::Response& response, InvokeResult& out) {
+            out.features.push_back(response.features);
+          }};
+}
+
 void LatestFeatures::answer(const GetFeatures::Request& request, GetFeatures::Response& response) const {
   const FeatureVector::ConstPtr latest = get();
   if (!latest) throw std::runtime_error("no feature vector yet");

@@ -17,7 +17,8 @@ Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   addOperation<GetFeatures>(
       features_.contract("the overhead camera", "the overhead camera has produced no feature vector yet"),
       LatestFeatures::validate,
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); },
+      true, nullptr, LatestFeatures::binder());
 }
 
 const core::ParameterTable& Observation::parameters() {

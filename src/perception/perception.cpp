@@ -37,7 +37,8 @@ Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
   addOperation<GetFeatures>(
       features_.contract("the robot camera", "the robot camera has produced no feature vector yet"),
       LatestFeatures::validate,
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); },
+      true, nullptr, LatestFeatures::binder());
 }
 
 const core::ParameterTable& Perception::parameters() {

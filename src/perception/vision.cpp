@@ -18,7 +18,8 @@ Vision::Vision(ros::NodeHandle nh, ros::NodeHandle private_nh)
   addOperation<GetFeatures>(
       features_.contract("vision (with the selected features)", "no image and feature vector pair has been processed yet"),
       LatestFeatures::validate,
-      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); });
+      [this](const GetFeatures::Request& request, GetFeatures::Response& response) { features_.answer(request, response); },
+      true, nullptr, LatestFeatures::binder());
 }
 
 const core::ParameterTable& Vision::parameters() {

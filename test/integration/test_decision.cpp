@@ -435,23 +435,42 @@ TEST_F(Decision, ReplansAreBoundedByMaxReplans) {
   EXPECT_NE(result->message.find("no replan left (~max_replans 0)"), std::string::npos) << result->message;
 }
 
-TEST_F(Decision, MalformedPlansAreRejected) {
+TEST_F(Decision, MalformedPlansAreRefusedBeforeAnyStepRuns) {
   ExecuteClient client(ns + "execution/execute_plan", true);
   struct Case {
     std::vector<xpersif::PlanStep> steps;
     std::string says;
+    State state;  // REJECTED when the goal alone shows it; ABORTED (code INVALID) when the component's contract
+                  // or binder does, before any step runs
+  };
+  const auto go = [](const std::string& pose) {
+    return step("relocation", "go_to_pose", "xpersif/GoToPoseAction", {"?pose"}, {pose});
   };
   const std::vector<Case> cases = {
-      {{}, "empty"},
-      {{step("vision", "get_features", "xpersif/Teleport", {}, {})}, "interface_type"},
-      {{pushStep("red_cube", "-x", "?offset", "0.05")}, "?offset"},
-      {{pushStep("red_cube", "-x", "0", "far")}, "not a number"},
-      {{step("relocation", "go_to_pose", "xpersif/GoToPoseAction", {"?pose"}, {"(0.1, 0.2)"})}, "pose"}};
+      {{}, "empty", State::REJECTED},
+      {{pushStep("red_cube", "-x", "?offset", "0.05")}, "?offset", State::REJECTED},
+      {{go("(-0.35, -0.2, 0.0)"), step("vision", "get_features", "xpersif/Teleport", {}, {})}, "interface_type",
+       State::ABORTED},
+      {{go("(-0.35, -0.2, 0.0)"), pushStep("red_cube", "-x", "0", "far")}, "?distance is 'far', not a number",
+       State::ABORTED},
+      {{go("(-0.35, -0.2, 0.0)"), go("(0.1, 0.2)")}, "?pose", State::ABORTED},
+      {{go("(-0.35, -0.2, 0.0)"), step("relocation", "fly", "", {}, {})}, "fly", State::ABORTED}};
+  const auto before = truth_->pose("khepera");
   for (const auto& c : cases) {
     const State state = execute(client, c.steps, 0, 20.0);
-    EXPECT_EQ(state, State::REJECTED) << c.says;
-    EXPECT_NE(state.getText().find(c.says), std::string::npos) << state.getText();
+    EXPECT_EQ(state, c.state) << c.says;
+    if (state == State::REJECTED) {
+      EXPECT_NE(state.getText().find(c.says), std::string::npos) << state.getText();
+      continue;
+    }
+    const auto result = client.getResult();
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->code, xpersif::ResultCode::INVALID) << result->message;
+    EXPECT_EQ(result->failed_step, 1u) << result->message;
+    EXPECT_NE(result->message.find(c.says), std::string::npos) << result->message;
   }
+  const auto after = truth_->pose("khepera");  // the good first steps never ran
+  EXPECT_LT(std::hypot(after.x - before.x, after.y - before.y), 0.005);
 }
 
 TEST_F(Decision, CancelPreemptsThePlanAndStopsTheRobot) {

@@ -17,16 +17,38 @@
 
 #include <atomic>
 #include <functional>
+#include <type_traits>
+#include <vector>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
 
+#include "xpersif/ResultCode.h"
 #include "xpersif/component/events.h"
 #include "xpersif/core/contract.h"
 #include "xpersif/core/validation.h"
 
 namespace xpersif {
+
+namespace detail {
+template <class Response, class = void>
+struct HasCode : std::false_type {};
+template <class Response>
+struct HasCode<Response, std::void_t<decltype(std::declval<Response&>().code)>> : std::true_type {};
+/// Sets response.code where the message has one (ours do; std_srvs' do not).
+template <class Response>
+void setCode(Response& response, std::uint8_t code) {
+  if constexpr (HasCode<Response>::value) response.code = code;
+}
+}  // namespace detail
+
+/// Why a goal or request is refused: a ResultCode and a sentence (no refusal when the sentence is empty).
+struct Refusal {
+  std::uint8_t code = ResultCode::OK;
+  std::string reason;
+  explicit operator bool() const { return !reason.empty(); }
+};
 
 using core::ContractChecker;
 using core::ContractError;
@@ -118,6 +140,14 @@ class CommandServer : public CommandServerBase {
     return running_ && !finished_;
   }
 
+  /// The checks a goal would meet if it arrived now (as onGoal makes them), with the refusal's code.
+  Refusal check(const Goal& goal) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return checkLocked(goal);
+  }
+  /// The contract's effects grounded from @p goal's bindings.
+  std::vector<std::string> groundEffects(const Goal& goal) const { return contract_.groundEffects(goal); }
+
   void stopRunning(const std::string& reason) override {
     std::unique_lock<std::mutex> lock(mutex_);
     if (running_ && !finished_) {
@@ -138,8 +168,28 @@ class CommandServer : public CommandServerBase {
     lock.lock();
   }
 
-  void reject(GoalHandle& gh, const std::string& reason) {
+  /// The checks a goal meets on arrival, in order (mutex_ held): readiness, busy, validation, preconditions.
+  Refusal checkLocked(const Goal& goal) const {
+    if (std::string reason = readiness_ ? readiness_() : ""; !reason.empty()) return {ResultCode::NOT_ACTIVE, reason};
+    if (running_ && !finished_) {
+      return {ResultCode::UNAVAILABLE, "'" + name() + "' is busy with goal " + running_->handle_.getGoalID().id +
+                                           "; it runs one goal at a time, so cancel that goal or wait for it"};
+    }
+    if (validate_) {
+      try {
+        validate_(goal);
+      } catch (const std::exception& e) {
+        return {ResultCode::INVALID, std::string("invalid goal: ") + e.what()};
+      }
+    }
+    if (std::string reason = contract_.firstUnmet(goal); !reason.empty()) return {ResultCode::PRECONDITION_FAILED, reason};
+    return {};
+  }
+
+  void reject(GoalHandle& gh, const Refusal& refusal) {
+    const std::string& reason = refusal.reason;
     Result result;
+    detail::setCode(result, refusal.code);
     gh.setRejected(result, reason);
     ComponentEvent event = events_.make(ComponentEvent::COMMAND, name(), "rejected", reason);
     event.goal_id = gh.getGoalID().id;
@@ -150,23 +200,11 @@ class CommandServer : public CommandServerBase {
 
   void onGoal(GoalHandle gh) {
     std::unique_lock<std::mutex> lock(mutex_);
-    std::string reason = readiness_ ? readiness_() : "";
-    if (reason.empty() && running_ && !finished_) {
-      reason = "'" + name() + "' is busy with goal " + running_->handle_.getGoalID().id +
-               "; it runs one goal at a time, so cancel that goal or wait for it";
-    }
     const Goal& goal = *gh.getGoal();
-    if (reason.empty() && validate_) {
-      try {
-        validate_(goal);
-      } catch (const std::exception& e) {
-        reason = std::string("invalid goal: ") + e.what();
-      }
-    }
-    if (reason.empty()) reason = contract_.firstUnmet(goal);
-    if (!reason.empty()) {
+    const Refusal refusal = checkLocked(goal);
+    if (refusal) {
       lock.unlock();
-      reject(gh, reason);
+      reject(gh, refusal);
       return;
     }
     joinWorker(lock);  // the previous goal has finished; reap its thread

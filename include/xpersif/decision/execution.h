@@ -1,29 +1,32 @@
 /**
  * @file execution.h
  * @brief EXECUTION: the command execute_plan, which runs a plan's steps through the components' own
- *        commands (actionlib) and operations (services), retrying a failing step.
+ *        commands and operations, whatever they are, retrying a failing step and replanning around it.
  *
- * Steps by interface type:
- *  - xpersif/PushAction, xpersif/GoToPoseAction, xpersif/TurnToAction: a goal to the action
- *    /<ns>/<component>/<operator>, its fields from the step's values (?object, ?side, ?offset, ?distance;
- *    ?pose as "(x, y, yaw)"; ?heading), pose_source from the plan's goal;
- *  - xpersif/GetFeatures: a call of the service <component>/<operator> with max_age ~max_age (1 s). After a
- *    command, the feature vector must be newer than that command's end (the scene has changed): the call is
- *    repeated every 50 ms of wall time, for at most ~fresh_timeout seconds of ROS time, until it is.
- * A failed step is tried again up to goal.retries times. If it still fails and the goal names the literals the
- * plan reaches (`goal.goal`, with `goal.state` what held when it was planned), EXECUTION replans the rest with
- * core::replan from the observed state (goal.state plus the effects of every step that succeeded, applied as the
- * steps' contracts say), excluding the failed step, and runs the new plan; parameters the new plan leaves open
- * take the values the old plan gave the same operator. At most ~max_replans times per goal; then, or when no
- * plan is found, or without goal.goal, the goal ends ABORTED (code FAILED) with failed_step (0-based, in the plan
- * being run) and a message naming the step, the last reason and why no replan followed. The operators for
- * replanning are the contracts of ~components (read with get_contracts when a goal with goal.goal starts). A cancel cancels the running sub-goal and ends the goal
- * PREEMPTED. Feedback after each attempt: the step's index and what happened.
- * Result: observations (every get_features result, in order) and robot_poses (where each command left the
- * robot, as the command reported it).
+ * Every step goes to its component's generic command `<component>/invoke` (component.h): the step's operator,
+ * parameters and values as they are, with the settings pose_source (the plan's) and max_age (~max_age) that a
+ * binder may read. So any command or operation that a component offers with a contract and a binder runs; EXECUTION
+ * knows no interface type. When a goal starts, before any step runs, each step is checked against the contract its
+ * component gives (get_contracts: the operator exists, the interface type matches when given, each parameter is the
+ * contract's) and by the component's binder (invoke with check_only): a bad value ends the goal ABORTED with code
+ * INVALID, failed_step and a sentence naming the step and the parameter; nothing has moved.
+ * A step whose invoke result carries feature vectors (an observation) must show the world after the plan's start
+ * or its last command's end: it is repeated every 50 ms of wall time, for at most ~fresh_timeout seconds of ROS
+ * time, until it does; the vectors go to the result's observations, in order. A step that reports robot_pose adds
+ * it to robot_poses.
+ * A failed step is tried again up to goal.retries times, unless its code is INVALID (then the goal ends at once,
+ * code INVALID). If it still fails and the goal names the literals the plan reaches (`goal.goal`, with `goal.state`
+ * what held when it was planned), EXECUTION replans the rest with core::replan from the observed state (goal.state
+ * plus the effects of every step that succeeded, applied as the steps' contracts say), excluding the failed step,
+ * and runs the new plan (checked as above); parameters the new plan leaves open take the values the old plan gave
+ * the same operator. At most ~max_replans times per goal; then, or when no plan is found, or without goal.goal,
+ * the goal ends ABORTED (code FAILED) with failed_step (0-based, in the plan being run) and a message naming the
+ * step, the last reason and why no replan followed. The operators for replanning are the contracts of
+ * ~components (read with get_contracts at the first failure). A cancel cancels the running invoke goal and ends
+ * the goal PREEMPTED. Feedback after each attempt: the step's index and what happened.
  *
- * Everything runs in the command's own thread (blocking calls are allowed there). Action clients are kept
- * per action name, with their own callback threads.
+ * Everything runs in the command's own thread (blocking calls are allowed there). One invoke client per
+ * component, kept, with its own callback thread.
  *
  * Parameters: Execution::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
  * reference).
@@ -38,21 +41,18 @@
 #include <string>
 
 #include "xpersif/ExecutePlanAction.h"
-#include "xpersif/GoToPoseAction.h"
-#include "xpersif/PushAction.h"
-#include "xpersif/TurnToAction.h"
+#include "xpersif/InvokeAction.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/planner.h"
 
 namespace xpersif {
 
-/// The interface types EXECUTION can run.
-const std::vector<std::string>& executableInterfaces();
-/// "" when @p step can be executed (a known interface type, every needed value given and well-formed), else
-/// a sentence naming the step's field.
+/// "" when @p step is well-formed (component and operator names, as many values as parameters, every value bound,
+/// not open "?x", sizes within invoke's limits), else a sentence naming the step's field. Needs no component.
 std::string checkStep(const std::string& field, const PlanStep& step);
-/// "(x, y, yaw)" (also without parentheses) into a pose; throws ValidationError naming @p field otherwise.
-geometry_msgs::Pose2D parsePose(const std::string& field, const std::string& text);
+/// "" when @p step fits one of its component's @p contracts (the operator exists, the interface type matches when
+/// given, every parameter is the contract's), else a sentence naming the step's field.
+std::string checkStepContract(const std::string& field, const PlanStep& step, const std::vector<core::Contract>& contracts);
 
 class Execution : public Component {
  public:
@@ -70,21 +70,32 @@ class Execution : public Component {
   void onShutdown() override;
 
  private:
-  /// One attempt of one step: "" on success, else why it failed. Sets @p cancelled when a cancel stopped it.
-  std::string runStep(ExecutePlan::Context& context, const PlanStep& step, ExecutePlanResult& result,
-                      bool& cancelled);
-  /// Send @p goal to @p action and wait for its end; "" when it SUCCEEDED (its result in @p result).
-  template <class Action, class Goal, class ResultPtr>
-  std::string runAction(ExecutePlan::Context& context, const std::string& action, const Goal& goal,
-                        bool& cancelled, ResultPtr* result);
-  std::string getFeatures(ExecutePlan::Context& context, const std::string& service, ExecutePlanResult& result);
+  using Contracts = std::map<std::string, std::vector<core::Contract>>;  // component -> its contracts
+  struct StepCheck {
+    std::size_t index;  ///< the first step that cannot run (the plan's size when all can)
+    std::uint8_t code;  ///< xpersif/ResultCode
+    std::string why;    ///< "" when every step can run
+  };
+
+  /// One attempt of one step: "" on success, else why it failed, with the component's @p code. Sets
+  /// @p cancelled when a cancel stopped it.
+  std::string runStep(ExecutePlan::Context& context, const PlanStep& step, bool is_command, ExecutePlanResult& result,
+                      bool& cancelled, std::uint8_t& code);
+  /// Send @p step to <component>/invoke and wait for its end; "" when it SUCCEEDED (its result in @p result).
+  std::string invokeStep(ExecutePlan::Context& context, const PlanStep& step, bool check_only, bool& cancelled,
+                         std::uint8_t& code, InvokeResultConstPtr* result);
+  /// checkStep, checkStepContract (reading a component's contracts into @p contracts the first time) and the
+  /// component's binder (invoke, check_only) for each of @p steps, in order; the first that fails.
+  StepCheck checkSteps(ExecutePlan::Context& context, const std::string& label, const std::vector<PlanStep>& steps,
+                       Contracts& contracts);
+  /// The contracts @p component gives with get_contracts; throws UnavailableError when it does not answer.
+  std::vector<core::Contract> readContracts(ExecutePlan::Context& context, const std::string& component);
   CommandOutcome execute(ExecutePlan::Context& context, ExecutePlanResult& result);
   /// The qualified contracts of ~components, read with their get_contracts (in the command thread); throws
   /// UnavailableError naming a component that did not answer.
   std::vector<core::Contract> readOperators(ExecutePlan::Context& context);
 
-  template <class Action>
-  actionlib::SimpleActionClient<Action>& client(const std::string& action);
+  actionlib::SimpleActionClient<InvokeAction>& invokeClient(const std::string& component);
 
   std::mutex mutex_;
   double max_age_ = 1.0;
@@ -95,7 +106,7 @@ class Execution : public Component {
   int max_depth_ = 8;
   std::vector<std::string> components_{"observation", "vision", "manipulation", "relocation"}, prefer_{"vision"};
   ros::Time observe_after_;  // observations must be newer: the plan's start, then its last command's end (command thread)
-  std::map<std::string, std::shared_ptr<void>> clients_;  // action name -> SimpleActionClient<Action>
+  std::map<std::string, std::shared_ptr<actionlib::SimpleActionClient<InvokeAction>>> clients_;  // by component
 };
 
 }  // namespace xpersif

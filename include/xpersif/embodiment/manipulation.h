@@ -25,6 +25,12 @@
 
 namespace xpersif {
 
+/// ~invoke's binder of push: ?object, ?side, ?offset, ?distance (finite numbers) and the setting pose_source;
+/// throws core::ValidationError naming the parameter. The contract's preconditions check the rest on arrival.
+PushGoal pushGoalFrom(const core::Invocation& invocation);
+/// What push tells ~invoke: robot_pose "(x, y, yaw)" where it left the robot, blocked, pushed (m).
+void reportPush(const PushResult& result, InvokeResult& out);
+
 class Manipulation : public Component {
  public:
   /// Its parameters, declared once (README, Parameter reference).

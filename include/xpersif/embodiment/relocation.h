@@ -32,6 +32,17 @@
 
 namespace xpersif {
 
+/// ~invoke's binders of RELOCATION's interfaces (they throw core::ValidationError naming the parameter):
+/// go_to_pose: ?pose "(x, y, yaw)" and the setting pose_source;
+GoToPoseGoal goToPoseGoalFrom(const core::Invocation& invocation);
+/// turn_to: ?heading (rad, within +-core::kMaxHeading) and the setting pose_source;
+TurnToGoal turnToGoalFrom(const core::Invocation& invocation);
+/// set_max_velocity: ?linear, ?angular (finite; the operation checks their ranges).
+SetMaxVelocity::Request setMaxVelocityRequestFrom(const core::Invocation& invocation);
+/// What go_to_pose and turn_to tell ~invoke: robot_pose "(x, y, yaw)" where they left the robot.
+void reportGoToPose(const GoToPoseResult& result, InvokeResult& out);
+void reportTurnTo(const TurnToResult& result, InvokeResult& out);
+
 class Relocation : public Component {
  public:
   /// Its parameters, declared once (README, Parameter reference).

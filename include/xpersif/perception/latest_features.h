@@ -11,6 +11,7 @@
 
 #include "xpersif/FeatureVector.h"
 #include "xpersif/GetFeatures.h"
+#include "xpersif/component/component.h"
 #include "xpersif/core/contract.h"
 
 namespace xpersif {
@@ -26,6 +27,9 @@ class LatestFeatures {
   core::ContractChecker<GetFeatures::Request> contract(const std::string& source, const std::string& not_yet) const;
   /// The request's check (max_age finite and non-negative). @throws core::ValidationError
   static void validate(const GetFeatures::Request& request);
+  /// ~invoke's binder of get_features: the setting max_age (s, 0: any age; default 0); the report adds the vector
+  /// to the invoke result's features.
+  static Binder<GetFeatures::Request, GetFeatures::Response> binder();
   /// The latest vector, unless it is older than request.max_age. @throws std::runtime_error
   void answer(const GetFeatures::Request& request, GetFeatures::Response& response) const;
 
