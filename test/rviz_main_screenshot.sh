@@ -58,6 +58,11 @@ for _ in $(seq 1 90); do
   xwininfo -root -tree 2>/dev/null | grep -qi rviz && break
   sleep 1
 done
+if ! xwininfo -root -tree 2>/dev/null | grep -qi rviz; then
+  tail -30 "$work/view.log"
+  echo "FAIL: rviz's window did not appear within 90 s"
+  exit 1
+fi
 sleep 10  # software GL, markers, the robot model
 # The shot is taken during the run: view_check.py pauses XPERSim once the run's first experiment is under way.
 /usr/bin/python3 "$repo/test/view_check.py" shot "$work/truth.json" "$work/rviz.png" &
@@ -71,6 +76,7 @@ rosservice call /xpersif/xpersim/resume >/dev/null
 cp "$work/rviz.png" "$keep/rviz.png"
 cp "$work/telesim/${camera}_last.png" "$keep/telesim.png"
 cp "$work/truth.json" "$keep/truth.json"
+cp "$work/view.log" "$keep/view.log"  # rviz's own words, for a shot that shows no rviz
 
 status=0
 /usr/bin/python3 "$repo/test/view_check.py" rviz "$work/truth.json" "$work/rviz.png" || status=1
