@@ -293,7 +293,16 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
     std::string why = invokeStep(context, step, false, cancelled, code, &r);
     // The scene may have changed even when a command failed: later observations must be newer.
     if (is_command) observe_after_ = ros::Time::now();
-    if (!why.empty()) return why;
+    if (!why.empty()) {
+      // An observation refused now (its source's latest vector too old: a camera coming back after its simulator
+      // was restarted) is given a moment later; a command is not repeated here, nor are bad values.
+      if (is_command || cancelled || code == ResultCode::INVALID || context.stopRequested() ||
+          ros::Time::now() > deadline) {
+        return why;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
     // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
     // behind the camera, so its latest vector may be older. Such a step is repeated until it is newer.
     for (const auto& features : r->features) {
