@@ -381,26 +381,13 @@ Execution::StepCheck Execution::checkSteps(ExecutePlan::Context& context, const 
 
 std::vector<core::Contract> Execution::readOperators(ExecutePlan::Context& context) {
   std::vector<std::string> components, prefer;
-  double server_timeout;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     components = components_;
     prefer = prefer_;
-    server_timeout = server_timeout_;
   }
   std::vector<ComponentContracts> loaded;
-  for (const auto& component : components) {
-    if (context.stopRequested()) throw core::UnavailableError("stopped while reading the contracts");
-    const std::string service = nodeHandle().resolveName(component + "/get_contracts");
-    GetContracts call;
-    if (!ros::service::waitForService(service, ros::Duration(server_timeout)) || !ros::service::call(service, call) ||
-        !call.response.success) {
-      throw core::UnavailableError("the contracts of " + component + " could not be read from " + service);
-    }
-    ComponentContracts got{component, {}};
-    for (const auto& c : call.response.contracts) got.contracts.push_back(fromContractMsg(c));
-    loaded.push_back(std::move(got));
-  }
+  for (const auto& component : components) loaded.push_back({component, readContracts(context, component)});
   return qualifiedOperators(loaded, prefer);
 }
 
