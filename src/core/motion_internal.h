@@ -15,10 +15,13 @@ constexpr double kPi = 3.14159265358979323846;
 
 // Controller tuning. The gains are per second (the controller is run every 10-50 ms); the square-root
 // profiles keep a decelerating command within the acceleration limits, so the robot does not overshoot.
-constexpr double kLinearGain = 1.5;       // 1/s: m/s per m of remaining distance
-constexpr double kMinLinear = 0.008;      // m/s: below this the last millimetres take too long
-constexpr double kTurnGain = 5.0;         // 1/s: rad/s per rad of heading error
-constexpr double kMinAngular = 0.25;      // rad/s
+// Gain times period stays below 1 at 50 ms. The linear and turn gains were 1.5 and 5 (floors 8 mm/s and
+// 0.25 rad/s): the robot then spent a third of every approach creeping the last centimetres or finishing a
+// turn, and the lockstep loop pays for every simulated second (bench/loop_speed.md).
+constexpr double kLinearGain = 3.0;       // 1/s: m/s per m of remaining distance
+constexpr double kMinLinear = 0.015;      // m/s: below this the last millimetres take too long
+constexpr double kTurnGain = 8.0;         // 1/s: rad/s per rad of heading error
+constexpr double kMinAngular = 0.4;       // rad/s
 constexpr double kHeadingGain = 4.0;      // 1/s: heading correction while driving
 constexpr double kStartDriving = 0.05;    // rad: heading error below which TurnToTarget gives way to Drive
 constexpr double kTurnAgain = 0.6;        // rad: heading error above which Drive turns in place again
