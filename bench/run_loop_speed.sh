@@ -34,6 +34,16 @@ print(f"{total / n:.2f} s simulated per push ({n} pushes)" if n else "no pushes 
 PY
 )
   echo "$mode: $experiments experiments + $goals goals in $wall s = $per s per push; $sim; $result"
+  # Where a lockstep tick's wall time went (XPERSim's ~status, part lockstep_timing).
+  if [ "$mode" = lockstep ]; then
+    timeout 10 python3 - <<'PY' || true
+import rospy
+from xpersif.msg import ComponentStatus
+rospy.init_node("loop_speed_timing", anonymous=True)
+status = rospy.wait_for_message("/xpersif/xpersim/status", ComponentStatus, timeout=5)
+print("  " + "; ".join(p.message for p in status.parts if p.name == "lockstep_timing"))
+PY
+  fi
   kill -INT "$launch"
   wait "$launch" || true
   launch=0

@@ -1,5 +1,6 @@
 #include "xpersif/core/lockstep.h"
 
+#include <cstdio>
 #include <iterator>
 
 #include "xpersif/core/validation.h"
@@ -101,6 +102,35 @@ std::vector<std::string> LockstepCoordinator::dropLate(double now) {
     if (leave(name)) command_ = Command{true, 0.0, 0.0};  // a dropped controller commands nothing
   }
   return late;
+}
+
+void LockstepTiming::addSensing(double wall_seconds, bool owed_a_sensor) {
+  seconds[kSensing] += wall_seconds;
+  if (!owed_a_sensor) return;
+  ++sensing_waits;
+  sensing_wait_seconds += wall_seconds;
+}
+
+void LockstepTiming::addStep(double acting, double physics, double publishing) {
+  ++ticks;
+  seconds[kActing] += acting;
+  seconds[kPhysics] += physics;
+  seconds[kPublishing] += publishing;
+}
+
+std::string LockstepTiming::describe() const {
+  if (ticks == 0) return "";
+  const double n = static_cast<double>(ticks);
+  auto ms = [n](double s) { return 1e3 * s / n; };
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "wall ms per stepped tick over %llu ticks: sensing %.2f (a sensor waited for on %.0f %% of ticks, %.2f ms "
+                "each), acting %.2f, physics %.2f, publishing %.2f; %.2f in all",
+                static_cast<unsigned long long>(ticks), ms(seconds[kSensing]), 100.0 * sensing_waits / n,
+                sensing_waits ? 1e3 * sensing_wait_seconds / sensing_waits : 0.0, ms(seconds[kActing]),
+                ms(seconds[kPhysics]), ms(seconds[kPublishing]),
+                ms(seconds[kSensing] + seconds[kActing] + seconds[kPhysics] + seconds[kPublishing]));
+  return text;
 }
 
 }  // namespace xpersif::core

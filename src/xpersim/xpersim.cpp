@@ -388,6 +388,7 @@ void XPerSim::onConfigure() {
   idle_period_ = idle_period;
   idle_time_ = 0;
   lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
+  timing_ = {};
   // Wall nanoseconds, kept increasing: a participant that hears a larger id knows it was forgotten and joins again.
   lockstep_clock_ = std::max(lockstep_clock_ + 1, static_cast<std::uint64_t>(ros::WallTime::now().toNSec()));
   trace_.reset();
@@ -713,6 +714,8 @@ void XPerSim::lockstepLoop() {
       events().publish(events().make(ComponentEvent::OPERATION, "lockstep", "dropped", last_problem_));
     }
     if (lockstep_->phase() == Phase::Sense && lockstep_->phaseComplete()) {
+      act_began_ = std::chrono::steady_clock::now();
+      if (!last_tick_idle_) timing_.addSensing(std::chrono::duration<double>(act_began_ - sense_began_).count(), sense_owed_);
       publishTickLocked(LockstepTick::ACT, lockstep_->startAct(now));
       continue;
     }
@@ -727,6 +730,7 @@ void XPerSim::lockstepLoop() {
       // Nobody wants time: an idle tick keeps the software's timers going (actionlib's status, ROS timers) but
       // the world stands still, so how long the loop thinks never changes what the physics does.
       const bool idle = !lockstep_->wantsTime();
+      const auto step_began = std::chrono::steady_clock::now();
       const core::LockstepCoordinator::Command& command = lockstep_->command();
       if (command.drives) world_->setVelocity(command.linear, command.angular);
       lockstep_->consumeRequest();
@@ -748,11 +752,19 @@ void XPerSim::lockstepLoop() {
       }
       last_tick_wall_ = now;
       last_tick_idle_ = idle;
+      const auto publish_began = std::chrono::steady_clock::now();
       publishFrameLocked();
       publishSensorsLocked();
       lockstep_->startTick(lockstep_->tick() + 1, now, world_->time(), idle);
       ++ticks_done_;
       publishTickLocked(LockstepTick::SENSE, {});
+      sense_began_ = std::chrono::steady_clock::now();
+      sense_owed_ = !lockstep_->phaseComplete();
+      if (!idle) {
+        using Seconds = std::chrono::duration<double>;
+        timing_.addStep(Seconds(step_began - act_began_).count(), Seconds(publish_began - step_began).count(),
+                        Seconds(sense_began_ - publish_began).count());
+      }
       lockstep_wake_.notify_all();  // the step operation waits for its ticks
       continue;
     }
@@ -830,6 +842,14 @@ void XPerSim::fillStatus(ComponentStatus& status) {
     if (status.health == ComponentStatus::HEALTH_OK) status.health = ComponentStatus::HEALTH_WARN;
   }
   status.parts.push_back(physics);
+  if (lockstep_ && timing_.ticks > 0) {
+    PartStatus timing;
+    timing.name = "lockstep_timing";
+    timing.state = status.state;
+    timing.state_name = status.state_name;
+    timing.message = timing_.describe();
+    status.parts.push_back(timing);
+  }
 }
 
 }  // namespace xpersif

@@ -5,6 +5,7 @@
 #include "xpersif/core/lockstep.h"
 #include "xpersif/core/validation.h"
 
+using xpersif::core::LockstepTiming;
 using xpersif::core::LockstepCoordinator;
 using Phase = LockstepCoordinator::Phase;
 using Role = LockstepCoordinator::Role;
@@ -159,4 +160,18 @@ TEST(Lockstep, AParticipantThatJoinsAgainUnderItsNameOwesNothingForThePhase) {
   c.startAct(0.0);
   c.startTick(2, 0.0, 0.04, false);
   EXPECT_EQ(c.owed(), (std::vector<std::string>{"camera", "other_camera"})) << "from the next tick it takes part again";
+}
+
+TEST(Lockstep, TimingSaysWhereATicksWallTimeGoes) {
+  LockstepTiming timing;
+  EXPECT_EQ(timing.describe(), "");
+  // Four stepped ticks; a camera frame was due in one SENSE phase (4 ms), the others passed at once.
+  timing.addSensing(0.004, true);
+  for (int i = 0; i < 3; ++i) timing.addSensing(0.0, false);
+  for (int i = 0; i < 4; ++i) timing.addStep(0.0008, 0.0005, 0.0001);
+  EXPECT_EQ(timing.ticks, 4u);
+  EXPECT_EQ(timing.sensing_waits, 1u);
+  EXPECT_EQ(timing.describe(),
+            "wall ms per stepped tick over 4 ticks: sensing 1.00 (a sensor waited for on 25 % of ticks, 4.00 ms each), "
+            "acting 0.80, physics 0.50, publishing 0.10; 2.40 in all");
 }

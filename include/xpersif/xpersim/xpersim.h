@@ -25,6 +25,7 @@
 #include <ros/ros.h>
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <fstream>
 #include <memory>
@@ -110,6 +111,10 @@ class XPerSim : public Component {
   double last_tick_wall_ = 0;
   double last_announce_wall_ = 0;  // wall time the clock last announced itself to nobody (a restarted simulator)
   bool last_tick_idle_ = false;
+  // Wall time per part of a stepped tick (~status): when each phase began, and whether the SENSE phase owed a sensor.
+  core::LockstepTiming timing_;
+  std::chrono::steady_clock::time_point sense_began_, act_began_;
+  bool sense_owed_ = false;
   std::condition_variable lockstep_wake_;
 
   std::atomic<bool> running_{false};
