@@ -1,6 +1,7 @@
 #include "xpersif/core/evaluation.h"
 
 #include <cmath>
+#include <map>
 
 #include <nlohmann/json.hpp>
 
@@ -27,15 +28,30 @@ PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities) 
 
 LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
                             const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
-                            const std::vector<int>& checkpoints) {
+                            const std::vector<int>& checkpoints, LearnerScope scope) {
   LearningCurve curve;
   curve.name = name;
+  // Per object, the identity says nothing within a model: each model sees one object.
+  PushLearnerConfig per_object = config;
+  per_object.one_hot_identity = false;
+  per_object.identities.clear();
   for (int k : checkpoints) {
     if (k < 0 || k > static_cast<int>(training.size())) continue;
-    PushLearner learner(config);
-    learner.addSamples(std::vector<PushSample>(training.begin(), training.begin() + k));
+    std::map<std::string, std::vector<PushSample>> by_object;
+    for (int i = 0; i < k; ++i) {
+      const std::string key = scope == LearnerScope::PerObject ? training[i].input.experiment.object : "";
+      by_object[key].push_back(training[i]);
+    }
+    std::map<std::string, PushLearner> learners;
+    for (const auto& [object, samples] : by_object) {
+      learners.emplace(object, PushLearner(scope == LearnerScope::PerObject ? per_object : config))
+          .first->second.addSamples(samples);
+    }
+    const PushLearner untrained(scope == LearnerScope::PerObject ? per_object : config);
     double sum = 0;
     for (const auto& s : evaluation) {
+      const auto it = learners.find(scope == LearnerScope::PerObject ? s.input.experiment.object : "");
+      const PushLearner& learner = it != learners.end() ? it->second : untrained;
       const double e = surprise(learner.predict(s.input), s.outcome).error;
       sum += e * e;
     }

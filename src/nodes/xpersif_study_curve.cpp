@@ -2,13 +2,14 @@
 // bases alone (ROS-free; scripts/study.py calls it for every finished cell).
 //
 //   xpersif_study_curve --evaluation-database FILE [--evaluation-run NAME] --database FILE --run NAME
-//                       --out DIR [--every K]
+//                       --out DIR [--every K] [--learner shared|per_object]
 //
 // The evaluation set is the successful experiments of run NAME (default "evaluation") of the evaluation database:
 // the same pushes for every design and seed of a study. The cell's model after k experiments is MACHINELEARNING's
 // learner, configured as MACHINELEARNING configures it (evaluation.h), trained on the run's first k successful
 // designed experiments; its RMS error on the evaluation set (m) for k = 0, K, 2K, ... and the last k goes to
-// DIR/curve.csv (experiments,error). DIR/notions.csv gets the run's notions (subject,predicate,confidence,
+// DIR/curve.csv (experiments,error). `--learner per_object` trains one model per object instead, each on that
+// object's pushes alone (core::LearnerScope; bench/loop.md compares the two on a study's knowledge bases). DIR/notions.csv gets the run's notions (subject,predicate,confidence,
 // support,text), DIR/experiments.csv every designed experiment of the run in order (seq,object,side,offset,
 // distance,status,surprise). Exit 0, or 1 with one sentence (a missing run, an empty evaluation set).
 #include <algorithm>
@@ -44,6 +45,7 @@ std::string csvText(const std::string& text) {
 int main(int argc, char** argv) {
   std::string evaluation_database, evaluation_run = "evaluation", database, run_name, out;
   int every = 1;
+  std::string learner = "shared";
   for (int i = 1; i < argc; i += 2) {
     const std::string key = argv[i];
     if (i + 1 >= argc) {
@@ -57,14 +59,16 @@ int main(int argc, char** argv) {
     else if (key == "--run") run_name = value;
     else if (key == "--out") out = value;
     else if (key == "--every") every = std::atoi(value.c_str());
+    else if (key == "--learner") learner = value;
     else {
       std::cerr << "xpersif_study_curve: unknown option " << key << "\n";
       return 2;
     }
   }
-  if (evaluation_database.empty() || database.empty() || run_name.empty() || out.empty() || every < 1) {
+  if (evaluation_database.empty() || database.empty() || run_name.empty() || out.empty() || every < 1 ||
+      (learner != "shared" && learner != "per_object")) {
     std::cerr << "usage: xpersif_study_curve --evaluation-database FILE [--evaluation-run NAME] --database FILE "
-                 "--run NAME --out DIR [--every K >= 1]\n";
+                 "--run NAME --out DIR [--every K >= 1] [--learner shared|per_object]\n";
     return 2;
   }
   try {
@@ -99,7 +103,8 @@ int main(int argc, char** argv) {
     std::vector<int> checkpoints;
     for (int k = 0; k <= static_cast<int>(training.size()); k += every) checkpoints.push_back(k);
     if (checkpoints.back() != static_cast<int>(training.size())) checkpoints.push_back(static_cast<int>(training.size()));
-    const LearningCurve curve = learningCurve(run_name, training, evaluation, loopLearnerConfig(identities), checkpoints);
+    const LearningCurve curve = learningCurve(run_name, training, evaluation, loopLearnerConfig(identities), checkpoints,
+                                              learner == "per_object" ? LearnerScope::PerObject : LearnerScope::Shared);
     std::ofstream csv(out + "/curve.csv");
     csv << "experiments,error\n" << std::setprecision(9);
     for (std::size_t i = 0; i < curve.experiments.size(); ++i) csv << curve.experiments[i] << "," << curve.error[i] << "\n";

@@ -71,3 +71,37 @@ TEST(Evaluation, RunParametersAreReadFromTheStoredJsonOrFallBack) {
   EXPECT_EQ(designedCount("[32]"), -1);
   EXPECT_EQ(designedCount(""), -1);
 }
+
+TEST(Evaluation, APerObjectLearnerKnowsTheObjectThatNeverMovesFromAFewPushes) {
+  // Few pushes of blue_cube (it never moves) among many of the moving cubes: a model per object predicts blue's
+  // pushes from blue's own, where one shared model lends it some of its neighbours' motion.
+  std::mt19937 rng(3);
+  std::vector<ExperimentRecord> train, test;
+  int blue = 0;
+  while (train.size() < 60) {
+    ExperimentRecord r = synthetic(rng, static_cast<int>(train.size()) + 1);
+    if (r.experiment.object == "blue_cube" && ++blue > 4) continue;
+    train.push_back(r);
+  }
+  while (test.size() < 20) {
+    ExperimentRecord r = synthetic(rng, static_cast<int>(test.size()) + 1);
+    if (r.experiment.object == "blue_cube") test.push_back(r);
+  }
+  const auto config = loopLearnerConfig({"blue_cube", "green_cube", "red_cube"});
+  const int n = static_cast<int>(pushSamples(train).size());
+  const LearningCurve shared = learningCurve("shared", pushSamples(train), pushSamples(test), config, {0, n});
+  const LearningCurve per_object =
+      learningCurve("per_object", pushSamples(train), pushSamples(test), config, {0, n}, LearnerScope::PerObject);
+  EXPECT_EQ(per_object.error[0], shared.error[0]);  // untrained: both are the prior
+  EXPECT_LT(per_object.error[1], 0.5 * shared.error[1]) << "shared " << shared.error[1] << " per object "
+                                                         << per_object.error[1];
+  // An object a per-object learner has never seen is predicted by the prior (it does not move): no error on blue.
+  std::vector<ExperimentRecord> without_blue;
+  for (const auto& r : train) {
+    if (r.experiment.object != "blue_cube") without_blue.push_back(r);
+  }
+  const int m = static_cast<int>(pushSamples(without_blue).size());
+  const LearningCurve unseen =
+      learningCurve("unseen", pushSamples(without_blue), pushSamples(test), config, {m}, LearnerScope::PerObject);
+  EXPECT_NEAR(unseen.error[0], 0.0, 1e-9);
+}

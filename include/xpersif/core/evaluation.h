@@ -31,10 +31,14 @@ struct LearningCurve {
   std::vector<double> error;     ///< RMS error on the evaluation set after k experiments, m
 };
 
+/// How the learner is trained: one model over every object (MACHINELEARNING's), or one model per object, each
+/// from that object's pushes alone (an object with none yet is predicted by the prior: it does not move).
+enum class LearnerScope { Shared, PerObject };
+
 /// Error after each k in @p checkpoints (k larger than the samples available are skipped).
 LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
                             const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
-                            const std::vector<int>& checkpoints);
+                            const std::vector<int>& checkpoints, LearnerScope scope = LearnerScope::Shared);
 
 /// The first k at which the curve is at or below @p error, or -1.
 int experimentsToReach(const LearningCurve& curve, double error);
