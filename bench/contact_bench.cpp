@@ -206,8 +206,9 @@ int main(int argc, char** argv) {
         std::vector<double> turns, alongs;
         for (int rep = 0; rep < opt.repeats; ++rep) {
           if (rep > 0) {
-            world.setPose(name, object_start);
+            // The robot first: after its retreat it may stand where the object started.
             world.setPose(spec.robot.name, robot_start);
+            world.setPose(name, object_start);
           }
           const PushResult r = push(world, cat, {name, side, offset, distance});
           if (!r.ok) {
