@@ -37,6 +37,7 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
   per_object.identities.clear();
   for (int k : checkpoints) {
     if (k < 0 || k > static_cast<int>(training.size())) continue;
+    // Shared: every sample under the one key "" (one learner); per object: under the object's name.
     std::map<std::string, std::vector<PushSample>> by_object;
     for (int i = 0; i < k; ++i) {
       const std::string key = scope == LearnerScope::PerObject ? training[i].input.experiment.object : "";
