@@ -78,6 +78,7 @@ TransitionResult Lifecycle::request(LifecycleTransition transition) {
     result.message = illegal;
     return result;
   }
+  const std::uint64_t failures_before = failures_;
   try {
     switch (transition) {
       case LifecycleTransition::Configure: runHook(hooks_.on_configure); break;
@@ -98,6 +99,15 @@ TransitionResult Lifecycle::request(LifecycleTransition transition) {
     result.message = error;
     return result;
   }
+  // A failure reported while the hook ran (e.g. by a bring-up thread it started) must not be overwritten by
+  // the transition's target state: the component would claim to be ACTIVE with its work already failed.
+  if (failures_ != failures_before &&
+      (transition == LifecycleTransition::Configure || transition == LifecycleTransition::Activate)) {
+    state_ = LifecycleState::Error;
+    result.state = state_;
+    result.message = std::string(toString(transition)) + " failed: " + lastError();
+    return result;
+  }
   state_ = targetOf(transition);
   if (transition == LifecycleTransition::Configure) setError("");
   result.success = true;
@@ -114,6 +124,7 @@ void Lifecycle::fail(const std::string& error) {
   if (state_ == LifecycleState::Finalized) return;
   setError(error);
   state_ = LifecycleState::Error;
+  ++failures_;
 }
 
 LifecycleState Lifecycle::state() const { return state_; }

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <thread>
 
 #include "xpersif/core/lifecycle.h"
 
@@ -105,4 +106,28 @@ TEST(Lifecycle, StateCanBeReadWhileAHookRuns) {
   lc.request(LifecycleTransition::Activate);
   lc.request(LifecycleTransition::Deactivate);  // would deadlock if state() waited for the transition
   EXPECT_EQ(seen, LifecycleState::Active);
+}
+
+TEST(Lifecycle, AFailureWhileTheActivateHookRunsIsNotOverwrittenByActive) {
+  // A supervisor's activate hook starts the bring-up in a thread of its own; when that thread fails before the
+  // hook has returned, the component must end in ERROR, not ACTIVE (seen once in CI: test_supervision waited
+  // 60 s for a broken supervisor's ERROR that an ACTIVE had replaced).
+  Lifecycle* self = nullptr;
+  Lifecycle lc({nullptr, [&] {
+                  std::thread bring_up([&] { self->fail("could not start /ghost"); });
+                  bring_up.join();
+                },
+                nullptr, nullptr});
+  self = &lc;
+  ASSERT_TRUE(lc.request(LifecycleTransition::Configure).success);
+  const auto r = lc.request(LifecycleTransition::Activate);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.state, LifecycleState::Error);
+  EXPECT_EQ(lc.state(), LifecycleState::Error);
+  EXPECT_EQ(lc.lastError(), "could not start /ghost");
+  EXPECT_EQ(r.message, "activate failed: could not start /ghost");
+  // Configure recovers as from any ERROR, and a later failure-free activation succeeds.
+  Lifecycle plain;
+  ASSERT_TRUE(plain.request(LifecycleTransition::Configure).success);
+  EXPECT_TRUE(plain.request(LifecycleTransition::Activate).success);
 }

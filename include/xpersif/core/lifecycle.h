@@ -73,7 +73,8 @@ class Lifecycle {
   /// Explain why @p transition is illegal from @p from, or return "" if it is legal.
   static std::string whyIllegal(LifecycleTransition transition, LifecycleState from);
 
-  /// Put the component in ERROR from the outside (e.g. a fault detected while ACTIVE).
+  /// Put the component in ERROR from the outside (e.g. a fault detected while ACTIVE). A failure while a
+  /// transition's hook runs (a thread the hook started, say) wins over that transition: it ends in ERROR.
   void fail(const std::string& error);
 
   LifecycleState state() const;
@@ -89,6 +90,7 @@ class Lifecycle {
   mutable std::mutex error_mutex_;  // guards last_error_
   Hooks hooks_;
   std::atomic<LifecycleState> state_{LifecycleState::Unconfigured};
+  std::atomic<std::uint64_t> failures_{0};  // fail() calls so far: a transition checks none came during its hook
   std::string last_error_;
 };
 
