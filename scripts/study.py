@@ -315,11 +315,15 @@ class Progress:
 
 
 def curve(cell, args, evaluation):
-    """The cell's learning curve on the study's evaluation set (xpersif_study_curve), into its run directory."""
+    """The cell's learning curve on the study's evaluation set (xpersif_study_curve), into its run directory, with
+    the learner the cells learned with: one forest per object when --param machine_learning.learner_type=
+    per_object_forest, MACHINELEARNING's shared forest otherwise."""
+    learner_type = args.params.get("machine_learning", {}).get("learner_type", "random_forest")
     out = subprocess.run(
         ["xpersif_study_curve", "--evaluation-database", os.path.join(evaluation.run_dir, "knowledge.db"),
          "--database", os.path.join(cell.run_dir, "knowledge.db"), "--run", cell.design, "--out", cell.run_dir,
-         "--every", str(args.every)], capture_output=True, text=True)
+         "--every", str(args.every), "--learner", "per_object" if learner_type == "per_object_forest" else "shared"],
+        capture_output=True, text=True)
     if out.returncode != 0:
         return out.stderr.strip() or "xpersif_study_curve failed"
     return ""
@@ -656,9 +660,11 @@ def report(args, cells, eval_objects, eval_why):
     md.append("")
     md.append("**Evaluation set** (held out, the same for every design and seed): %d successful random pushes of "
               "%s (%s), seed %d, stored in `evaluation/knowledge.db` and `evaluation_set.csv`. A cell's error after k "
-              "experiments is the RMS prediction error on it of MACHINELEARNING's learner trained on the cell's first "
-              "k successful experiments (m; a turn counts as the travel of a point 2 cm from the centre); checkpoints "
-              "every %d experiments." % (len(ev_rows), ", ".join(eval_objects), eval_why, args.evaluation_seed, args.every))
+              "experiments is the RMS prediction error on it of MACHINELEARNING's learner (%s) trained on the cell's "
+              "first k successful experiments (m; a turn counts as the travel of a point 2 cm from the centre); "
+              "checkpoints every %d experiments." % (
+                  len(ev_rows), ", ".join(eval_objects), eval_why, args.evaluation_seed,
+                  args.params.get("machine_learning", {}).get("learner_type", "random_forest"), args.every))
     md.append("")
     md.append("## Learning curves (mean over seeds, 95 % t-interval)")
     md.append("")

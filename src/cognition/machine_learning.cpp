@@ -185,7 +185,7 @@ const core::ParameterTable& MachineLearning::parameters() {
     core::ParameterTable own(
         "machine_learning",
         {core::textParameter("learner_type", "random_forest",
-                             "the push model plugin: random_forest, gaussian_process or another package's (README, Plugins)"),
+                             "the push model plugin: random_forest, per_object_forest, gaussian_process or another package's (README, Plugins)"),
          core::namesParameter("features", d.feature_names, core::kMaxExtraFeatures,
                               "the object's features the model learns from, besides the push"),
          ParameterSpec{"feature_scales", ParameterSpec::Type::Dictionary, {}, "{hue: 30, size: 0.01}", -INFINITY, INFINITY, {},
@@ -221,7 +221,7 @@ void MachineLearning::onConfigure() {
     }
   }
   // The forest's own parameters, kept from before learners were plugins.
-  if (learner_type == "random_forest") {
+  if (learner_type == "random_forest" || learner_type == "per_object_forest") {
     for (const std::string option : {"ensemble_size", "trees_per_member"}) {
       if (parameters.has(option)) config.options[option] = parameters.get<int>(option, 0);
     }

@@ -2,11 +2,13 @@
 
 #include <cmath>
 #include <map>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
 #include "xpersif/core/experiment_samples.h"
 #include "xpersif/core/motivation.h"
+#include "xpersif/core/per_object_push_model.h"
 
 namespace xpersif::core {
 
@@ -31,29 +33,16 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
                             const std::vector<int>& checkpoints, LearnerScope scope) {
   LearningCurve curve;
   curve.name = name;
-  // Per object, the identity says nothing within a model: each model sees one object.
-  PushLearnerConfig per_object = config;
-  per_object.one_hot_identity = false;
-  per_object.identities.clear();
   for (int k : checkpoints) {
     if (k < 0 || k > static_cast<int>(training.size())) continue;
-    // Shared: every sample under the one key "" (one learner); per object: under the object's name.
-    std::map<std::string, std::vector<PushSample>> by_object;
-    for (int i = 0; i < k; ++i) {
-      const std::string key = scope == LearnerScope::PerObject ? training[i].input.experiment.object : "";
-      by_object[key].push_back(training[i]);
-    }
-    std::map<std::string, PushLearner> learners;
-    for (const auto& [object, samples] : by_object) {
-      learners.emplace(object, PushLearner(scope == LearnerScope::PerObject ? per_object : config))
-          .first->second.addSamples(samples);
-    }
-    const PushLearner untrained(scope == LearnerScope::PerObject ? per_object : config);
+    const std::vector<PushSample> first(training.begin(), training.begin() + k);
+    std::unique_ptr<PushModel> learner;
+    if (scope == LearnerScope::PerObject) learner = std::make_unique<PerObjectPushModel>(config);
+    else learner = std::make_unique<PushLearner>(config);
+    if (!first.empty()) learner->addSamples(first);
     double sum = 0;
     for (const auto& s : evaluation) {
-      const auto it = learners.find(scope == LearnerScope::PerObject ? s.input.experiment.object : "");
-      const PushLearner& learner = it != learners.end() ? it->second : untrained;
-      const double e = surprise(learner.predict(s.input), s.outcome).error;
+      const double e = surprise(learner->predict(s.input), s.outcome).error;
       sum += e * e;
     }
     curve.experiments.push_back(k);

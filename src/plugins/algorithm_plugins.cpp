@@ -9,11 +9,13 @@
 #include "xpersif/core/experiment_design.h"
 #include "xpersif/core/gaussian_process_push_model.h"
 #include "xpersif/core/learning_progress.h"
+#include "xpersif/core/per_object_push_model.h"
 #include "xpersif/core/plan_search.h"
 #include "xpersif/core/push_learner.h"
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::PushLearner, xpersif::core::PushModel)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GaussianProcessPushModel, xpersif::core::PushModel)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::PerObjectPushModel, xpersif::core::PushModel)
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::CuriosityDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::RandomDesign, xpersif::core::ExperimentDesign)

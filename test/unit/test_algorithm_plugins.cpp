@@ -52,8 +52,9 @@ TEST(AlgorithmPlugins, PushModelsLoadByNameAndLearn) {
   const auto declared = loader.declared();
   ASSERT_TRUE(contains(declared, "random_forest")) << joinWithCommas(declared);
   ASSERT_TRUE(contains(declared, "gaussian_process")) << joinWithCommas(declared);
+  ASSERT_TRUE(contains(declared, "per_object_forest")) << joinWithCommas(declared);
   std::set<std::string> formats;
-  for (const std::string type : {"random_forest", "gaussian_process"}) {
+  for (const std::string type : {"random_forest", "gaussian_process", "per_object_forest"}) {
     auto model = loader.create("~learner_type", type);
     model->configure(PushModelConfig{});
     for (int i = 0; i < 6; ++i) model->addSample(input("cube", 0.02 + 0.01 * i), {0.02 + 0.01 * i, 0, 0});
@@ -61,7 +62,7 @@ TEST(AlgorithmPlugins, PushModelsLoadByNameAndLearn) {
     EXPECT_GT(model->predict(input("cube", 0.05)).mean.dx, 0.02) << type;
     formats.insert(model->format());
   }
-  EXPECT_EQ(formats.size(), 2u);  // GOALDESIGN tells them apart by format
+  EXPECT_EQ(formats.size(), 3u);  // GOALDESIGN tells them apart by format
 }
 
 TEST(AlgorithmPlugins, DesignsLoadByNameAndKeepTheirSeededStreams) {

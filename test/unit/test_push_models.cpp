@@ -8,6 +8,7 @@
 #include <random>
 
 #include "xpersif/core/gaussian_process_push_model.h"
+#include "xpersif/core/per_object_push_model.h"
 #include "xpersif/core/push_learner.h"
 #include "xpersif/core/validation.h"
 
@@ -65,9 +66,10 @@ struct Named {
 
 std::ostream& operator<<(std::ostream& out, const Named& n) { return out << n.name; }
 
-/// Both models as the plugins make them: default-constructed, then configured.
+/// Every model as the plugins make them: default-constructed, then configured.
 std::vector<Named> models() {
   return {{"random_forest", [] { return std::unique_ptr<PushModel>(std::make_unique<PushLearner>()); }},
+          {"per_object_forest", [] { return std::unique_ptr<PushModel>(std::make_unique<PerObjectPushModel>()); }},
           {"gaussian_process",
            [] { return std::unique_ptr<PushModel>(std::make_unique<GaussianProcessPushModel>()); }}};
 }
@@ -205,7 +207,7 @@ TEST_P(PushModels, OneByOneOrAllAtOnceGiveTheSameModel) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Both, PushModels, ::testing::ValuesIn(models()),
+INSTANTIATE_TEST_SUITE_P(All, PushModels, ::testing::ValuesIn(models()),
                          [](const ::testing::TestParamInfo<Named>& info) { return info.param.name; });
 
 TEST(GaussianProcessPushModel, OptionsSetTheKernel) {
@@ -235,4 +237,41 @@ TEST(PushLearner, ItsOptionsAreItsConfig) {
   PushModelConfig fractional = config.toModelConfig();
   fractional.options["ensemble_size"] = 2.5;
   EXPECT_THROW(PushLearnerConfig::fromModelConfig(fractional), ValidationError);
+}
+
+TEST(PerObjectPushModel, KnowsAnObjectThatNeverMovesFromThreePushesAmongMany) {
+  // 60 pushes of the two sliding cubes and 3 of blue_cube, which never moves (the share a design that leaves the
+  // trivial object alone gives it): blue's own learner predicts no motion; the shared forest lends it the others'.
+  PushModelConfig config;
+  config.one_hot_identity = true;
+  config.identities = {"red_cube", "green_cube", "blue_cube"};
+  std::vector<PushSample> movers, blue;
+  for (const auto& s : pushes(200, 21)) {
+    auto& to = s.input.experiment.object == "blue_cube" ? blue : movers;
+    if ((&to == &movers && movers.size() < 60) || (&to == &blue && blue.size() < 3)) to.push_back(s);
+  }
+  ASSERT_EQ(blue.size(), 3u);
+  PerObjectPushModel per_object(PushLearnerConfig::fromModelConfig(config));
+  PushLearner shared(PushLearnerConfig::fromModelConfig(config));
+  per_object.addSamples(movers);
+  per_object.addSamples({blue[0], blue[1]});
+  EXPECT_FALSE(per_object.ownsPrediction("blue_cube"));  // two pushes: the shared model still speaks for it
+  per_object.addSamples({blue[2]});
+  EXPECT_TRUE(per_object.ownsPrediction("blue_cube"));
+  EXPECT_TRUE(per_object.ownsPrediction("red_cube"));
+  shared.addSamples(movers);
+  shared.addSamples(blue);
+  double per_object_error = 0, shared_error = 0;
+  for (const auto& s : pushes(200, 22)) {
+    if (s.input.experiment.object != "blue_cube") continue;
+    per_object_error = std::max(per_object_error, std::abs(per_object.predict(s.input).mean.dx));
+    shared_error = std::max(shared_error, std::abs(shared.predict(s.input).mean.dx));
+  }
+  EXPECT_LT(per_object_error, 0.001);
+  EXPECT_GT(shared_error, 5 * per_object_error + 0.002) << "the shared forest learned blue too: the test shows nothing";
+  // Another model's bytes are refused and change nothing.
+  const std::size_t before = per_object.sampleCount();
+  EXPECT_THROW(per_object.load(shared.save()), ValidationError);
+  EXPECT_EQ(per_object.sampleCount(), before);
+  EXPECT_TRUE(per_object.ownsPrediction("blue_cube"));
 }

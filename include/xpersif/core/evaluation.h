@@ -31,8 +31,9 @@ struct LearningCurve {
   std::vector<double> error;     ///< RMS error on the evaluation set after k experiments, m
 };
 
-/// How the learner is trained: one model over every object (MACHINELEARNING's), or one model per object, each
-/// from that object's pushes alone (an object with none yet is predicted by the prior: it does not move).
+/// How the learner is trained: one model over every object (learner_type random_forest, MACHINELEARNING's
+/// default), or one model per object with the shared one for objects seen fewer than three times
+/// (per_object_forest, core::PerObjectPushModel).
 enum class LearnerScope { Shared, PerObject };
 
 /// Error after each k in @p checkpoints (k larger than the samples available are skipped).
