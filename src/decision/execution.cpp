@@ -344,9 +344,21 @@ std::vector<core::Contract> Execution::readContracts(ExecutePlan::Context& conte
   if (context.stopRequested()) throw core::UnavailableError("stopped while reading the contracts");
   const std::string service = nodeHandle().resolveName(component + "/get_contracts");
   GetContracts call;
-  if (!ros::service::waitForService(service, ros::Duration(server_timeout)) || !ros::service::call(service, call) ||
-      !call.response.success) {
-    throw core::UnavailableError("the contracts of " + component + " could not be read from " + service);
+  // Asked again until ~server_timeout (wall time) has passed: a call that fails once on a loaded machine would
+  // otherwise fail the experiment, and a failed experiment changes the rest of the campaign (seen in a study:
+  // the same seed's random cell differed from experiment 45 on).
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(server_timeout);
+  for (;;) {
+    const double left = std::max(0.0, (until - ros::WallTime::now()).toSec());
+    if (ros::service::waitForService(service, ros::Duration(left)) && ros::service::call(service, call) &&
+        call.response.success) {
+      break;
+    }
+    if (context.stopRequested() || ros::WallTime::now() >= until) {
+      throw core::UnavailableError("the contracts of " + component + " could not be read from " + service +
+                                   " within " + core::describeNumber(server_timeout) + " s");
+    }
+    ros::WallDuration(0.1).sleep();
   }
   std::vector<core::Contract> contracts;
   for (const auto& c : call.response.contracts) contracts.push_back(fromContractMsg(c));
