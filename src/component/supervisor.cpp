@@ -246,8 +246,19 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
     throw std::runtime_error(component.name + " offers no " + service + " service within " +
                              core::describeNumber(startup_timeout_) + " s");
   }
+  // A call that fails in transport (no answer: a manager just respawned, a loaded machine) is asked again until
+  // ~startup_timeout has passed: one such failure during a restart made a crash-battery take's whole run abort.
+  // Asking again is safe: a transition already reached is accepted below.
   Transition call;
-  if (!ros::service::call(service, call)) throw std::runtime_error("call to " + service + " failed");
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(startup_timeout_);
+  while (!ros::service::call(service, call)) {
+    if (ros::WallTime::now() >= until) {
+      throw std::runtime_error("call to " + service + " failed (asked again for " +
+                               core::describeNumber(startup_timeout_) + " s)");
+    }
+    ros::WallDuration(0.2).sleep();
+    ros::service::waitForService(service, ros::Duration(std::max(0.01, (until - ros::WallTime::now()).toSec())));
+  }
   // An already reached state (e.g. configure on an INACTIVE component re-reads parameters) is fine.
   if (!call.response.success && call.response.state != static_cast<std::uint8_t>(core::targetOf(transition))) {
     throw std::runtime_error(component.name + " refused to " + toString(transition) + ": " + call.response.message);
