@@ -1,11 +1,13 @@
 #include "xpersif/core/per_object_push_model.h"
 
+#include <string_view>
+
 #include "xpersif/core/validation.h"
 
 namespace xpersif::core {
 
 namespace {
-constexpr const char* kFormatPrefix = "# xpersif-per-object-forest/1\n";
+constexpr std::string_view kFormatPrefix = "# xpersif-per-object-forest/1\n";
 }
 
 PerObjectPushModel::PerObjectPushModel(PushLearnerConfig config) : shared_(std::move(config)) {}
@@ -25,6 +27,11 @@ void PerObjectPushModel::configure(const PushModelConfig& config) {
 
 void PerObjectPushModel::addSamples(const std::vector<PushSample>& samples) {
   shared_.addSamples(samples);  // validates every sample first: a bad one throws and changes nothing
+  learnPerObject(samples);
+}
+
+void PerObjectPushModel::learnPerObject(const std::vector<PushSample>& samples) {
+  // In the order the samples came, so that each object's learner sees its samples as it did live.
   std::map<std::string, std::vector<PushSample>> by_object;
   for (const auto& s : samples) by_object[s.input.experiment.object].push_back(s);
   for (auto& [object, own] : by_object) {
@@ -45,27 +52,18 @@ Prediction PerObjectPushModel::predict(const PushInput& input) const {
   return shared_.predict(input);
 }
 
-std::string PerObjectPushModel::save() const { return kFormatPrefix + shared_.save(); }
+std::string PerObjectPushModel::save() const { return std::string(kFormatPrefix) + shared_.save(); }
 
 void PerObjectPushModel::load(const std::string& bytes) {
-  if (bytes.compare(0, std::char_traits<char>::length(kFormatPrefix), kFormatPrefix) != 0) {
+  if (std::string_view(bytes).substr(0, kFormatPrefix.size()) != kFormatPrefix) {
     throw ValidationError(std::string("the model's bytes are not a ") + kFormat + " model (they do not start with '" +
-                          std::string(kFormatPrefix, std::char_traits<char>::length(kFormatPrefix) - 1) + "')");
+                          std::string(kFormatPrefix.substr(0, kFormatPrefix.size() - 1)) + "')");
   }
   PushLearner shared;
-  shared.load(bytes.substr(std::char_traits<char>::length(kFormatPrefix)));  // throws for malformed bytes
+  shared.load(bytes.substr(kFormatPrefix.size()));  // throws for malformed bytes
   shared_ = std::move(shared);
-  rebuildPerObject();
-}
-
-void PerObjectPushModel::rebuildPerObject() {
-  // In the order the samples came, so that each object's learner sees its samples as it did live.
   per_object_.clear();
-  std::map<std::string, std::vector<PushSample>> by_object;
-  for (const auto& s : shared_.samples()) by_object[s.input.experiment.object].push_back(s);
-  for (auto& [object, own] : by_object) {
-    per_object_.emplace(object, PushLearner(perObjectConfig(shared_.config()))).first->second.addSamples(own);
-  }
+  learnPerObject(shared_.samples());
 }
 
 }  // namespace xpersif::core

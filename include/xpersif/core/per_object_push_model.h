@@ -56,7 +56,8 @@ class PerObjectPushModel : public PushModel {
  private:
   /// The per-object learners' configuration: the shared one without the identity code.
   static PushLearnerConfig perObjectConfig(PushLearnerConfig config);
-  void rebuildPerObject();
+  /// Add @p samples (already validated) to their objects' learners, creating the learners they need.
+  void learnPerObject(const std::vector<PushSample>& samples);
 
   PushLearner shared_;
   std::map<std::string, PushLearner> per_object_;
