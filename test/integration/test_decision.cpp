@@ -27,6 +27,7 @@
 #include "xpersif/SetPose.h"
 #include "xpersif/core/push_learner.h"
 
+using xpersif_test::callService;
 using xpersif_test::transition;
 using xpersif_test::waitFor;
 using xpersif_test::GroundTruth;
@@ -121,7 +122,7 @@ void expectValid(const xpersif::Experiment& e) {
 xpersif::DesignExperiment design(const std::vector<std::string>& reachable = {}) {
   xpersif::DesignExperiment call;
   call.request.reachable = reachable;
-  EXPECT_TRUE(ros::service::call(ns + "design_of_experiments/design_experiment", call));
+  EXPECT_TRUE(callService(ns + "design_of_experiments/design_experiment", call));
   return call;
 }
 
@@ -170,7 +171,7 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   // A request naming an undeclared design (designs are plugins): INVALID, with the declared ones listed.
   xpersif::DesignExperiment undeclared;
   undeclared.request.design = "astrology";
-  ASSERT_TRUE(ros::service::call(ns + "design_of_experiments/design_experiment", undeclared));
+  ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", undeclared));
   EXPECT_FALSE(undeclared.response.success);
   EXPECT_EQ(undeclared.response.code, xpersif::ResultCode::INVALID);
   EXPECT_NE(undeclared.response.message.find("curiosity, error_max, grid, learning_progress, random"), std::string::npos)
@@ -499,13 +500,13 @@ TEST_F(Decision, GoalDesignRefusesWithoutAModelThenAimsItsPushesAtTheTarget) {
   red.position.y = 0.05;
   red.yaw = 0.4;  // as perceived: the faces are turned, so the push directions are too
   choose.request.scene.objects.push_back(red);
-  ASSERT_TRUE(ros::service::call(ns + "goal_design/choose_push", choose));
+  ASSERT_TRUE(callService(ns + "goal_design/choose_push", choose));
   EXPECT_FALSE(choose.response.success);
   EXPECT_EQ(choose.response.code, xpersif::ResultCode::PRECONDITION_FAILED);
   EXPECT_NE(choose.response.message.find("learned(model)"), std::string::npos) << choose.response.message;
   xpersif::DesignGoal goal_call;
   goal_call.request.scene = choose.request.scene;
-  ASSERT_TRUE(ros::service::call(ns + "goal_design/design_goal", goal_call));
+  ASSERT_TRUE(callService(ns + "goal_design/design_goal", goal_call));
   EXPECT_FALSE(goal_call.response.success);
   EXPECT_NE(goal_call.response.message.find("learned(model)"), std::string::npos) << goal_call.response.message;
 
@@ -579,7 +580,7 @@ TEST_F(Decision, GoalDesignRefusesWithoutAModelThenAimsItsPushesAtTheTarget) {
   // the arena's shorter side, 0.6 m here), 8 cm inside the walls (arena 0.9 x 0.6).
   xpersif::GetFeatures seen;
   seen.request.max_age = 1.0;
-  ASSERT_TRUE(ros::service::call(ns + "vision/get_features", seen) && seen.response.success);
+  ASSERT_TRUE(callService(ns + "vision/get_features", seen) && seen.response.success);
   xpersif::DesignGoal only_blue;
   for (const auto& o : seen.response.features.objects) {
     if (o.name == "blue_cube") only_blue.request.scene.objects.push_back(o);
@@ -596,7 +597,7 @@ TEST_F(Decision, GoalDesignRefusesWithoutAModelThenAimsItsPushesAtTheTarget) {
   for (int i = 0; i < 12; ++i) {
     xpersif::DesignGoal call;
     call.request.scene = seen.response.features;
-    ASSERT_TRUE(ros::service::call(ns + "goal_design/design_goal", call));
+    ASSERT_TRUE(callService(ns + "goal_design/design_goal", call));
     ASSERT_TRUE(call.response.success) << call.response.message;
     EXPECT_NE(call.response.object, "blue_cube");
     chosen.insert(call.response.object);

@@ -29,6 +29,10 @@ import websocket
 from xpersif.msg import BodyPoses, Scene
 
 PKG = "xpersif"
+# The least share of the bridge's frames a client reading at full rate must get. A timing figure, so it is kept far
+# from both what is measured here (95-100 % idle, 82 % once on a loaded CI machine) and what the failures it
+# guards against give (~20 % or less).
+FAST_CLIENT_SHARE = 0.6
 
 
 def bridge_port(node):
@@ -210,7 +214,9 @@ class TestWebBridge(unittest.TestCase):
         print("4 s: the bridge received %d frames; the full-rate client got %d, the 10 Hz client %d" % (
             published, f1 - f0, s1 - s0))
         self.assertGreater(published, 100)
-        self.assertGreaterEqual(f1 - f0, 0.9 * published)
+        # Not 0.9: this test's Python readers share two loaded cores with the bridge and the simulator, and a CI run
+        # saw a reader at 82 %. A bridge that paced every client at the slowest one's rate gives ~20 % here.
+        self.assertGreaterEqual(f1 - f0, FAST_CLIENT_SHARE * published)
         self.assertTrue(32 <= s1 - s0 <= 48, s1 - s0)
 
     # ---- slow clients ------------------------------------------------------------------------------------
@@ -247,8 +253,9 @@ class TestWebBridge(unittest.TestCase):
         print("12 s with a slow and a stuck client: bridge received %d frames, fast clients got %s; most bytes queued "
               "for one client %d (window %d); bridge RSS %d -> %d kB; the stuck client dropped after %s s; the slow "
               "one got %d frames" % (published, got, max_queued, window, rss0, max_rss, stuck_gone_after, slow.frames))
+        # A bridge that let the slow (1 message/s) or the stuck client hold the others back would give them ~1 %.
         for g in got:
-            self.assertGreaterEqual(g, 0.9 * published)
+            self.assertGreaterEqual(g, FAST_CLIENT_SHARE * published)
         # A socket queue holds at most the window plus one message, and what waits in the bridge is one message
         # per kind: nothing grows with time.
         self.assertLessEqual(max_queued, window + 64 * 1024)
