@@ -1,7 +1,8 @@
 // lp_replay: what learning progress saw, step by step, in a finished run (bench/loop.md). ROS-free.
 //
 //   lp_replay --world FILE --database FILE --run NAME [--region-max-size N (15)] [--window W (10)]
-//             [--temperature T (0.1)] [--random-share R (0.2)] [--every K (5)]
+//             [--temperature T (0.1)] [--random-share R (0.2)] [--every K (5)] [--confidence Z (0)]
+//             [--per-object 0|1 (0)]
 //
 // Rebuilds learning_progress's regions from the run's successful designed experiments and their held-out errors
 // (as DESIGNOFEXPERIMENTS does at every choice), every K experiments, and prints: the leaves with their interest,
@@ -25,7 +26,8 @@ using namespace xpersif::core;
 int main(int argc, char** argv) {
   std::string world, database, run_name;
   std::size_t region_max_size = 15, window = 10;
-  double temperature = 0.1, random_share = 0.2;
+  double temperature = 0.1, random_share = 0.2, confidence = 0.0;
+  bool per_object = false;
   int every = 5;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -37,6 +39,8 @@ int main(int argc, char** argv) {
     else if (key == "--temperature") temperature = std::atof(value.c_str());
     else if (key == "--random-share") random_share = std::atof(value.c_str());
     else if (key == "--every") every = std::atoi(value.c_str());
+    else if (key == "--confidence") confidence = std::atof(value.c_str());
+    else if (key == "--per-object") per_object = value == "1" || value == "true";
     else {
       std::cerr << "lp_replay: unknown option " << key << "\n";
       return 2;
@@ -44,7 +48,7 @@ int main(int argc, char** argv) {
   }
   if (world.empty() || database.empty() || run_name.empty() || every < 1) {
     std::cerr << "usage: lp_replay --world FILE --database FILE --run NAME [--region-max-size N] [--window W] "
-                 "[--temperature T] [--random-share R] [--every K]\n";
+                 "[--temperature T] [--random-share R] [--every K] [--confidence Z] [--per-object 0|1]\n";
     return 2;
   }
   try {
@@ -69,7 +73,8 @@ int main(int argc, char** argv) {
     int non_positive = 0, steps = 0;
     std::map<std::string, double> mean_probability;
     for (std::size_t k = static_cast<std::size_t>(every); k <= history.size(); k += static_cast<std::size_t>(every)) {
-      AdaptiveRegions regions(space, Interest::Progress, region_max_size, window);
+      AdaptiveRegions regions(space, Interest::Progress, region_max_size, window, confidence,
+                              per_object ? FirstCut::ByObject : FirstCut::None);
       for (std::size_t i = 0; i < k; ++i) {
         const auto& r = history[i];
         const auto o = std::find(space.objects.begin(), space.objects.end(), r.experiment.object) - space.objects.begin();

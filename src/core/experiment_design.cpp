@@ -101,6 +101,7 @@ void DesignOptions::validate() const {
   requireOneOf("options.region_choice", region_choice, {"softmax", "greedy"});
   requireInRange("options.temperature", temperature, 0.001, 100.0);
   requireInRange("options.random_share", random_share, 0.0, 1.0);
+  requireInRange("options.progress_confidence", progress_confidence, 0.0, 10.0);
 }
 
 // ---- random -----------------------------------------------------------------------------------------------

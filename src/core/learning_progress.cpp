@@ -5,6 +5,7 @@
 #include "xpersif/core/learning_progress.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -36,8 +37,12 @@ std::string names(const std::vector<std::string>& all, const std::vector<bool>& 
 // ---- the regions ------------------------------------------------------------------------------------------
 
 AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::size_t region_max_size,
-                                 std::size_t window)
-    : space_(std::move(space)), interest_(interest), region_max_size_(region_max_size), window_(window) {
+                                 std::size_t window, double confidence, FirstCut first_cut)
+    : space_(std::move(space)),
+      interest_(interest),
+      region_max_size_(region_max_size),
+      window_(window),
+      confidence_(confidence) {
   if (space_.objects.empty()) throw ValidationError("the experiment space has no objects");
   if (space_.sides.empty()) throw ValidationError("the experiment space has no sides");
   requireFinite("space.min_offset", space_.min_offset);
@@ -51,6 +56,7 @@ AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::
     throw ValidationError("region_max_size is " + std::to_string(region_max_size_) + "; it must be at least 4");
   }
   if (window_ < 1) throw ValidationError("progress_window is 0; it must be at least 1");
+  requireInRange("progress_confidence", confidence_, 0.0, 10.0);
   Region root;
   root.objects.assign(space_.objects.size(), true);
   root.sides.assign(space_.sides.size(), true);
@@ -59,13 +65,33 @@ AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::
   root.distance_lo = space_.min_distance;
   root.distance_hi = space_.max_distance;
   regions_.push_back(root);
+  if (first_cut == FirstCut::ByObject) {
+    // A chain of binary cuts: {first object} against the rest, then the rest likewise.
+    int rest = 0;
+    for (std::size_t object = 0; object + 1 < space_.objects.size(); ++object) {
+      std::vector<bool> only(space_.objects.size(), false);
+      only[object] = true;
+      rest = cutRegion(rest, 0, only, 0.0)[1];
+    }
+  }
 }
 
-double AdaptiveRegions::progress(const std::vector<double>& errors, std::size_t window) {
+double AdaptiveRegions::progress(const std::vector<double>& errors, std::size_t window, double confidence) {
   const std::size_t n = errors.size();
   const std::size_t w = std::min(window, n / 2);
   if (w == 0) return 0.0;
-  return mean(errors, n - 2 * w, n - w) - mean(errors, n - w, n);
+  const double older = mean(errors, n - 2 * w, n - w), newer = mean(errors, n - w, n);
+  const double difference = older - newer;
+  if (confidence <= 0 || w < 2) return difference;
+  auto variance = [&](std::size_t from, double m) {
+    double sum = 0;
+    for (std::size_t i = from; i < from + w; ++i) sum += (errors[i] - m) * (errors[i] - m);
+    return sum / static_cast<double>(w - 1);
+  };
+  const double standard_error =
+      std::sqrt((variance(n - 2 * w, older) + variance(n - w, newer)) / static_cast<double>(w));
+  const double margin = confidence * standard_error;
+  return difference > 0 ? std::max(0.0, difference - margin) : std::min(0.0, difference + margin);
 }
 
 double AdaptiveRegions::recentError(const std::vector<double>& errors, std::size_t window) {
@@ -77,7 +103,7 @@ double AdaptiveRegions::interestOf(const std::vector<std::size_t>& members) cons
   std::vector<double> e;
   e.reserve(members.size());
   for (std::size_t i : members) e.push_back(errors_[i]);
-  return interest_ == Interest::Progress ? progress(e, window_) : recentError(e, window_);
+  return interest_ == Interest::Progress ? progress(e, window_, confidence_) : recentError(e, window_);
 }
 
 double AdaptiveRegions::interest(int region) const { return interestOf(this->region(region).members); }
@@ -181,37 +207,41 @@ void AdaptiveRegions::split(int id) {
     }
   }
   if (best.dim < 0) return;  // nothing leaves both sides a quarter: keep growing
+  cutRegion(id, best.dim, best.first, best.threshold);
+}
 
+std::array<int, 2> AdaptiveRegions::cutRegion(int id, int dim, const std::vector<bool>& first, double threshold) {
+  const Region parent = regions_[static_cast<std::size_t>(id)];  // a copy: regions_ grows
   Region lower = parent, upper = parent;
   lower.members.clear();
   upper.members.clear();
   lower.parent = upper.parent = id;
   lower.children[0] = lower.children[1] = upper.children[0] = upper.children[1] = -1;
-  std::ostringstream cut;
-  if (best.dim < 2) {
-    const std::vector<std::string>& all = best.dim == 0 ? space_.objects : space_.sides;
-    std::vector<bool>& lo = best.dim == 0 ? lower.objects : lower.sides;
-    std::vector<bool>& hi = best.dim == 0 ? upper.objects : upper.sides;
+  if (dim < 2) {
+    const std::vector<std::string>& all = dim == 0 ? space_.objects : space_.sides;
+    std::vector<bool>& lo = dim == 0 ? lower.objects : lower.sides;
+    std::vector<bool>& hi = dim == 0 ? upper.objects : upper.sides;
     for (std::size_t c = 0; c < all.size(); ++c) {
-      lo[c] = lo[c] && best.first[c];
-      hi[c] = hi[c] && !best.first[c];
+      lo[c] = lo[c] && first[c];
+      hi[c] = hi[c] && !first[c];
     }
-    const std::string what = best.dim == 0 ? "object" : "side";
+    const std::string what = dim == 0 ? "object" : "side";
     lower.cut = what + " in {" + names(all, lo) + "}";
     upper.cut = what + " in {" + names(all, hi) + "}";
   } else {
-    const std::string what = best.dim == 2 ? "offset" : "distance";
-    (best.dim == 2 ? lower.offset_hi : lower.distance_hi) = best.threshold;
-    (best.dim == 2 ? upper.offset_lo : upper.distance_lo) = best.threshold;
-    lower.cut = what + " < " + describeNumber(best.threshold);
-    upper.cut = what + " >= " + describeNumber(best.threshold);
+    const std::string what = dim == 2 ? "offset" : "distance";
+    (dim == 2 ? lower.offset_hi : lower.distance_hi) = threshold;
+    (dim == 2 ? upper.offset_lo : upper.distance_lo) = threshold;
+    lower.cut = what + " < " + describeNumber(threshold);
+    upper.cut = what + " >= " + describeNumber(threshold);
   }
-  for (std::size_t m : members) (contains(lower, points_[m]) ? lower.members : upper.members).push_back(m);
+  for (std::size_t m : parent.members) (contains(lower, points_[m]) ? lower.members : upper.members).push_back(m);
   const int a = static_cast<int>(regions_.size());
   regions_.push_back(std::move(lower));
   regions_.push_back(std::move(upper));
   regions_[static_cast<std::size_t>(id)].children[0] = a;
   regions_[static_cast<std::size_t>(id)].children[1] = a + 1;
+  return {a, a + 1};
 }
 
 std::string AdaptiveRegions::describe(int id) const {
@@ -263,7 +293,9 @@ ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
   space.max_distance = options_.max_distance;
 
   // The tree from the history alone: the same history gives the same regions.
-  auto regions = std::make_unique<AdaptiveRegions>(space, interest_, options_.region_max_size, options_.progress_window);
+  auto regions = std::make_unique<AdaptiveRegions>(
+      space, interest_, options_.region_max_size, options_.progress_window, options_.progress_confidence,
+      options_.regions_per_object ? FirstCut::ByObject : FirstCut::None);
   for (std::size_t i = 0; i < context.history.size(); ++i) {
     const PastExperiment& h = context.history[i];
     const std::string at = "context.history[" + std::to_string(i) + "]";

@@ -92,6 +92,11 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
                                "region designs: softmax temperature, relative to the largest interest"),
          core::numberParameter("random_share", d.random_share, 0.0, 1.0,
                                "region designs: probability of a uniformly random push over the whole space"),
+         core::numberParameter("progress_confidence", d.progress_confidence, 0.0, 10.0,
+                               "learning_progress: progress counts only beyond this many standard errors of the "
+                               "windows' difference (0: the plain difference)"),
+         core::flagParameter("regions_per_object", d.regions_per_object,
+                             "region designs: start with one region per object instead of one for the whole space"),
          core::textParameter("features_topic", "vision/features", "VISION's feature vectors (which objects are seen)"),
          core::textParameter("motivation_topic", "motivation/motivation", "MOTIVATION's regions and curiosity")});
     own.include(ExperimentFollower::Options::parameters()).include(setupCatalogueParameters());
@@ -123,6 +128,8 @@ void DesignOfExperiments::onConfigure() {
   options.region_choice = parameters.get<std::string>("region_choice");
   options.temperature = parameters.get<double>("temperature");
   options.random_share = parameters.get<double>("random_share");
+  options.progress_confidence = parameters.get<double>("progress_confidence");
+  options.regions_per_object = parameters.get<bool>("regions_per_object");
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   const std::string features_topic = parameters.get<std::string>("features_topic");
   const std::string motivation_topic = parameters.get<std::string>("motivation_topic");

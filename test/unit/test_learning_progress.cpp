@@ -60,8 +60,8 @@ class Knn {
 
 /// Runs @p n experiments designed by @p design (fresh with @p seed), learning as the loop does; returns the
 /// objects chosen, in order.
-std::vector<std::string> campaign(const std::string& design, unsigned long seed, int n) {
-  DesignOptions options;  // the defaults, as DESIGNOFEXPERIMENTS has them
+std::vector<std::string> campaign(const std::string& design, unsigned long seed, int n,
+                                  const DesignOptions& options) {
   auto d = makeDesign(design, seed, options);
   DesignContext c = space();
   std::mt19937_64 noise(seed + 1000);
@@ -80,10 +80,11 @@ std::vector<std::string> campaign(const std::string& design, unsigned long seed,
 }
 
 /// Share of each object among the choices after the warm-up, averaged over seeds.
-std::map<std::string, double> shares(const std::string& design, int seeds, int n, int warm_up) {
+std::map<std::string, double> shares(const std::string& design, int seeds, int n, int warm_up,
+                                     const DesignOptions& options = {}) {  // the defaults, as DESIGNOFEXPERIMENTS'
   std::map<std::string, double> share;
   for (int s = 1; s <= seeds; ++s) {
-    const auto chosen = campaign(design, static_cast<unsigned long>(s), n);
+    const auto chosen = campaign(design, static_cast<unsigned long>(s), n, options);
     for (int i = warm_up; i < n; ++i) share[chosen[static_cast<std::size_t>(i)]] += 1.0 / (n - warm_up) / seeds;
   }
   return share;
@@ -99,6 +100,42 @@ TEST(AdaptiveRegions, ProgressIsTheFallOfTheErrorNotTheError) {
   EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({9.0, 0.5, 0.5, 0.1, 0.3}, 2), 0.3);
   EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.7, 0.7, 0.7, 0.7}, 2), 0.0);  // high and flat: nothing to learn
   EXPECT_DOUBLE_EQ(AdaptiveRegions::recentError({9.0, 0.5, 0.1}, 2), 0.3);
+}
+
+TEST(AdaptiveRegions, ProgressWithAConfidenceShrinksTheDifferenceByItsStandardErrors) {
+  // Windows {0.4, 0.6} and {0.1, 0.3}: difference 0.3; each window's sample variance 0.02, so the standard
+  // error of the difference is sqrt((0.02 + 0.02) / 2) = 0.1414.
+  const std::vector<double> falling{0.4, 0.6, 0.1, 0.3};
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, 0.0), 0.3);
+  EXPECT_NEAR(AdaptiveRegions::progress(falling, 2, 1.0), 0.3 - std::sqrt(0.02), 1e-12);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, 3.0), 0.0) << "within three standard errors: no progress";
+  // A rise is shrunk towards 0 likewise, never past it.
+  const std::vector<double> rising{0.1, 0.3, 0.4, 0.6};
+  EXPECT_NEAR(AdaptiveRegions::progress(rising, 2, 1.0), -0.3 + std::sqrt(0.02), 1e-12);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(rising, 2, 3.0), 0.0);
+  // Steady errors have no spread: their fall counts whole.
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.5, 0.5, 0.2, 0.2}, 2, 2.0), 0.3);
+  // Windows of one error have no standard error: unshrunk.
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.4, 0.2}, 5, 2.0), 0.2);
+  ExperimentSpace s{{"a"}, {"-x"}, -1, 1, 0.01, 0.1};
+  EXPECT_THROW(AdaptiveRegions(s, Interest::Progress, 8, 2, -0.5), ValidationError);
+  DesignOptions bad;
+  bad.progress_confidence = NAN;
+  EXPECT_THROW(bad.validate(), ValidationError);
+}
+
+TEST(AdaptiveRegions, PerObjectRegionsStartWithOneLeafPerObject) {
+  ExperimentSpace s{{"a", "b", "c"}, {"-x", "+x"}, -1, 1, 0.01, 0.1};
+  AdaptiveRegions regions(s, Interest::Progress, 8, 3, 0.0, FirstCut::ByObject);
+  ASSERT_EQ(regions.leaves().size(), 3u);
+  for (std::size_t object = 0; object < 3; ++object) {
+    const Region& leaf = regions.region(regions.leafOf({object, 0, 0.0, 0.05}));
+    for (std::size_t other = 0; other < 3; ++other) EXPECT_EQ(leaf.objects[other], other == object) << leaf.cut;
+  }
+  // Each object's experiments stay in its own leaf, which then splits on its own.
+  for (int i = 0; i < 9; ++i) regions.add({1, static_cast<std::size_t>(i % 2), -0.9 + 0.2 * i, 0.05}, 0.1);
+  EXPECT_EQ(regions.leaves().size(), 4u) << "b's leaf held 9 > 8 and was cut";
+  EXPECT_EQ(regions.region(regions.leafOf({0, 0, 0.0, 0.05})).members.size(), 0u);
 }
 
 TEST(AdaptiveRegions, SplitsAlongTheCutThatSeparatesProgress) {
@@ -151,8 +188,8 @@ TEST(AdaptiveRegions, BadInputIsRefusedWithASentence) {
 
 TEST(RegionDesigns, SameSeedAndHistorySameChoiceAndOnlyReachableObjects) {
   for (const std::string name : {"learning_progress", "error_max"}) {
-    const auto a = campaign(name, 3, 120);
-    const auto b = campaign(name, 3, 120);
+    const auto a = campaign(name, 3, 120, DesignOptions{});
+    const auto b = campaign(name, 3, 120, DesignOptions{});
     EXPECT_EQ(a, b) << name;
     auto d = makeDesign(name, 3);
     EXPECT_TRUE(d->usesHistory());
@@ -192,4 +229,28 @@ TEST(RegionDesigns, LearningProgressConcentratesOnTheLearnableAndErrorMaxOnTheNo
   EXPECT_GT(lp.at("learnable"), lp.at("trivial") + 0.08);
   EXPECT_GT(em.at("noisy"), 0.6);
   EXPECT_LT(em.at("learnable"), random.at("learnable"));
+}
+
+TEST(RegionDesigns, PerObjectRegionsAndAConfidentProgressConcentrateMoreOnTheLearnable) {
+  auto show = [](const std::map<std::string, double>& s) {
+    std::string out;
+    for (const auto& [k, v] : s) out += k + " " + std::to_string(v) + "  ";
+    return out;
+  };
+  DesignOptions per_object, confident, both;
+  per_object.regions_per_object = both.regions_per_object = true;
+  confident.progress_confidence = both.progress_confidence = 1.0;
+  const auto plain = shares("learning_progress", 10, 400, 100);
+  const auto by_object = shares("learning_progress", 10, 400, 100, per_object);
+  const auto lp = shares("learning_progress", 10, 400, 100, both);
+  const std::string figures = "plain: " + show(plain) + "\nregions per object: " + show(by_object) + "\nconfidence 1: " +
+                              show(shares("learning_progress", 10, 400, 100, confident)) + "\nboth: " + show(lp);
+  std::cout << "learning_progress, shares of experiments 101-400 over 10 seeds:\n" << figures << std::endl;
+  SCOPED_TRACE(figures);
+  // Here the regions per object make the difference (a noisy or trivial object no longer shares a leaf with the
+  // learnable one); the confidence alone changes little.
+  EXPECT_GT(by_object.at("learnable"), plain.at("learnable") + 0.1);
+  EXPECT_GT(lp.at("learnable"), plain.at("learnable") + 0.1);
+  EXPECT_GT(lp.at("learnable"), lp.at("noisy") + 0.2);
+  EXPECT_GT(lp.at("learnable"), lp.at("trivial") + 0.2);
 }

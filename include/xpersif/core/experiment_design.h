@@ -87,6 +87,11 @@ struct DesignOptions {
   std::string region_choice = "softmax";  ///< "softmax" or "greedy"
   double temperature = 0.1;   ///< softmax temperature, relative to the largest |interest| (0.001..100)
   double random_share = 0.2;  ///< probability of a uniformly random push over the whole space, [0, 1]
+  /// Learning progress counts only beyond this many standard errors of the difference of the window means
+  /// (0: the plain difference), so that a region whose errors are noise wins only by a margin noise rarely
+  /// gives (0..10).
+  double progress_confidence = 0.0;
+  bool regions_per_object = false;  ///< region designs: start with one region per object, not one for all
 
   /// Throw ValidationError (one sentence naming the option) unless the options are consistent.
   void validate() const;

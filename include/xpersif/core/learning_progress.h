@@ -11,10 +11,13 @@
  * the outcome before it saw it (LOOPMODEL's `surprise`, metres). The space starts as one region; a region that
  * holds more than `region_max_size` experiments is cut in two, along the cut (a set of objects or sides against
  * the rest, or a threshold on offset or distance) that maximises n_a * n_b * |I(a) - I(b)| (SAGG-RIAC's
- * criterion), where I is the region's interest:
+ * criterion), where I is the region's interest. With regions_per_object the space starts cut by object (one
+ * region each), so that an object learned at once or never does not share its region's interest with another:
  *  - learning progress (LearningProgressDesign): mean error of the older window minus mean error of the newer
  *    one, over the region's last 2 * progress_window errors in the order they were made (fewer errors: two
- *    halves). Errors that stay high (noise) or stay low (learned) give no progress;
+ *    halves). Errors that stay high (noise) or stay low (learned) give no progress. With progress_confidence
+ *    z > 0 the difference is shrunk towards 0 by z of its standard errors (a confidence bound), so that the
+ *    chance differences of a noisy region's windows count for little;
  *  - mean recent error (ErrorMaxDesign): the mean of the region's last progress_window errors. It is the trap
  *    the comparison shows: it goes where the outcome is noise.
  * Each choice: with probability `random_share` a uniformly random push over the whole space (it keeps every
@@ -26,6 +29,7 @@
  */
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <random>
 #include <string>
@@ -66,19 +70,25 @@ struct Region {
 /// What a region's errors say.
 enum class Interest { Progress, Error };
 
+/// How the regions' tree starts: one region for the whole space, or one per object (cut by object first).
+enum class FirstCut { None, ByObject };
+
 /// The regions' tree over an experiment space. Not thread-safe.
 class AdaptiveRegions {
  public:
-  /// Throws ValidationError for an empty space, bad ranges, region_max_size < 4 or window < 1.
-  AdaptiveRegions(ExperimentSpace space, Interest interest, std::size_t region_max_size, std::size_t window);
+  /// Throws ValidationError for an empty space, bad ranges, region_max_size < 4, window < 1 or a confidence
+  /// outside [0, 10].
+  AdaptiveRegions(ExperimentSpace space, Interest interest, std::size_t region_max_size, std::size_t window,
+                  double confidence = 0.0, FirstCut first_cut = FirstCut::None);
 
   /// Adds an experiment (its point clamped into the space) with its held-out error (finite, >= 0); splits its
   /// region when it then holds more than region_max_size experiments and some cut leaves both sides at least
   /// a quarter of them.
   void add(const SpacePoint& point, double error);
 
-  /// Learning progress of errors in the order they were made (older window mean - newer window mean).
-  static double progress(const std::vector<double>& errors, std::size_t window);
+  /// Learning progress of errors in the order they were made (older window mean - newer window mean), shrunk
+  /// towards 0 by @p confidence standard errors of that difference (windows of one error have none: unshrunk).
+  static double progress(const std::vector<double>& errors, std::size_t window, double confidence = 0.0);
   /// Mean of the last @p window errors (0 for none).
   static double recentError(const std::vector<double>& errors, std::size_t window);
 
@@ -98,6 +108,9 @@ class AdaptiveRegions {
 
  private:
   void split(int region);
+  /// Cuts leaf @p region in two, by categories (@p dim 0 objects, 1 sides; @p first: the first child's) or by
+  /// @p threshold on the offset (2) or the distance (3); its members go to the children, whose ids it returns.
+  std::array<int, 2> cutRegion(int region, int dim, const std::vector<bool>& first, double threshold);
   bool contains(const Region& r, const SpacePoint& p) const;
   double interestOf(const std::vector<std::size_t>& members) const;
 
@@ -105,6 +118,7 @@ class AdaptiveRegions {
   Interest interest_;
   std::size_t region_max_size_;
   std::size_t window_;
+  double confidence_;
   std::vector<SpacePoint> points_;
   std::vector<double> errors_;
   std::vector<Region> regions_;
