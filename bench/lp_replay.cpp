@@ -2,7 +2,7 @@
 //
 //   lp_replay --world FILE --database FILE --run NAME [--region-max-size N (15)] [--window W (10)]
 //             [--temperature T (0.1)] [--random-share R (0.2)] [--every K (5)] [--confidence Z (0)]
-//             [--per-object 0|1 (0)]
+//             [--per-object 0|1 (0)] [--at-most-error 0|1 (0)]
 //
 // Rebuilds learning_progress's regions from the run's successful designed experiments and their held-out errors
 // (as DESIGNOFEXPERIMENTS does at every choice), every K experiments, and prints: the leaves with their interest,
@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   std::string world, database, run_name;
   std::size_t region_max_size = 15, window = 10;
   double temperature = 0.1, random_share = 0.2, confidence = 0.0;
-  bool per_object = false;
+  bool per_object = false, at_most_error = false;
   int every = 5;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
     else if (key == "--every") every = std::atoi(value.c_str());
     else if (key == "--confidence") confidence = std::atof(value.c_str());
     else if (key == "--per-object") per_object = value == "1" || value == "true";
+    else if (key == "--at-most-error") at_most_error = value == "1" || value == "true";
     else {
       std::cerr << "lp_replay: unknown option " << key << "\n";
       return 2;
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
   }
   if (world.empty() || database.empty() || run_name.empty() || every < 1) {
     std::cerr << "usage: lp_replay --world FILE --database FILE --run NAME [--region-max-size N] [--window W] "
-                 "[--temperature T] [--random-share R] [--every K] [--confidence Z] [--per-object 0|1]\n";
+                 "[--temperature T] [--random-share R] [--every K] [--confidence Z] [--per-object 0|1] [--at-most-error 0|1]\n";
     return 2;
   }
   try {
@@ -73,7 +74,7 @@ int main(int argc, char** argv) {
     int non_positive = 0, steps = 0;
     std::map<std::string, double> mean_probability;
     for (std::size_t k = static_cast<std::size_t>(every); k <= history.size(); k += static_cast<std::size_t>(every)) {
-      AdaptiveRegions regions(space, Interest::Progress, region_max_size, window, confidence,
+      AdaptiveRegions regions(space, Interest::Progress, region_max_size, window, ProgressRules{confidence, at_most_error},
                               per_object ? FirstCut::ByObject : FirstCut::None);
       for (std::size_t i = 0; i < k; ++i) {
         const auto& r = history[i];

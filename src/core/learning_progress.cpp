@@ -37,12 +37,12 @@ std::string names(const std::vector<std::string>& all, const std::vector<bool>& 
 // ---- the regions ------------------------------------------------------------------------------------------
 
 AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::size_t region_max_size,
-                                 std::size_t window, double confidence, FirstCut first_cut)
+                                 std::size_t window, ProgressRules rules, FirstCut first_cut)
     : space_(std::move(space)),
       interest_(interest),
       region_max_size_(region_max_size),
       window_(window),
-      confidence_(confidence) {
+      rules_(rules) {
   if (space_.objects.empty()) throw ValidationError("the experiment space has no objects");
   if (space_.sides.empty()) throw ValidationError("the experiment space has no sides");
   requireFinite("space.min_offset", space_.min_offset);
@@ -56,7 +56,7 @@ AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::
     throw ValidationError("region_max_size is " + std::to_string(region_max_size_) + "; it must be at least 4");
   }
   if (window_ < 1) throw ValidationError("progress_window is 0; it must be at least 1");
-  requireInRange("progress_confidence", confidence_, 0.0, 10.0);
+  requireInRange("progress_confidence", rules_.confidence, 0.0, 10.0);
   Region root;
   root.objects.assign(space_.objects.size(), true);
   root.sides.assign(space_.sides.size(), true);
@@ -76,22 +76,24 @@ AdaptiveRegions::AdaptiveRegions(ExperimentSpace space, Interest interest, std::
   }
 }
 
-double AdaptiveRegions::progress(const std::vector<double>& errors, std::size_t window, double confidence) {
+double AdaptiveRegions::progress(const std::vector<double>& errors, std::size_t window, const ProgressRules& rules) {
   const std::size_t n = errors.size();
   const std::size_t w = std::min(window, n / 2);
   if (w == 0) return 0.0;
   const double older = mean(errors, n - 2 * w, n - w), newer = mean(errors, n - w, n);
-  const double difference = older - newer;
-  if (confidence <= 0 || w < 2) return difference;
-  auto variance = [&](std::size_t from, double m) {
-    double sum = 0;
-    for (std::size_t i = from; i < from + w; ++i) sum += (errors[i] - m) * (errors[i] - m);
-    return sum / static_cast<double>(w - 1);
-  };
-  const double standard_error =
-      std::sqrt((variance(n - 2 * w, older) + variance(n - w, newer)) / static_cast<double>(w));
-  const double margin = confidence * standard_error;
-  return difference > 0 ? std::max(0.0, difference - margin) : std::min(0.0, difference + margin);
+  double progress = older - newer;
+  if (rules.confidence > 0 && w >= 2) {
+    auto variance = [&](std::size_t from, double m) {
+      double sum = 0;
+      for (std::size_t i = from; i < from + w; ++i) sum += (errors[i] - m) * (errors[i] - m);
+      return sum / static_cast<double>(w - 1);
+    };
+    const double standard_error =
+        std::sqrt((variance(n - 2 * w, older) + variance(n - w, newer)) / static_cast<double>(w));
+    const double margin = rules.confidence * standard_error;
+    progress = progress > 0 ? std::max(0.0, progress - margin) : std::min(0.0, progress + margin);
+  }
+  return rules.at_most_recent_error ? std::min(progress, newer) : progress;
 }
 
 double AdaptiveRegions::recentError(const std::vector<double>& errors, std::size_t window) {
@@ -103,7 +105,7 @@ double AdaptiveRegions::interestOf(const std::vector<std::size_t>& members) cons
   std::vector<double> e;
   e.reserve(members.size());
   for (std::size_t i : members) e.push_back(errors_[i]);
-  return interest_ == Interest::Progress ? progress(e, window_, confidence_) : recentError(e, window_);
+  return interest_ == Interest::Progress ? progress(e, window_, rules_) : recentError(e, window_);
 }
 
 double AdaptiveRegions::interest(int region) const { return interestOf(this->region(region).members); }
@@ -294,7 +296,8 @@ ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
 
   // The tree from the history alone: the same history gives the same regions.
   auto regions = std::make_unique<AdaptiveRegions>(
-      space, interest_, options_.region_max_size, options_.progress_window, options_.progress_confidence,
+      space, interest_, options_.region_max_size, options_.progress_window,
+      ProgressRules{options_.progress_confidence, options_.progress_at_most_error},
       options_.regions_per_object ? FirstCut::ByObject : FirstCut::None);
   for (std::size_t i = 0; i < context.history.size(); ++i) {
     const PastExperiment& h = context.history[i];

@@ -95,6 +95,9 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
          core::numberParameter("progress_confidence", d.progress_confidence, 0.0, 10.0,
                                "learning_progress: progress counts only beyond this many standard errors of the "
                                "windows' difference (0: the plain difference)"),
+         core::flagParameter("progress_at_most_error", d.progress_at_most_error,
+                             "learning_progress: a region's progress counts at most its recent mean error (what is left "
+                             "to learn)"),
          core::flagParameter("regions_per_object", d.regions_per_object,
                              "region designs: start with one region per object instead of one for the whole space"),
          core::textParameter("features_topic", "vision/features", "VISION's feature vectors (which objects are seen)"),
@@ -130,6 +133,7 @@ void DesignOfExperiments::onConfigure() {
   options.random_share = parameters.get<double>("random_share");
   options.progress_confidence = parameters.get<double>("progress_confidence");
   options.regions_per_object = parameters.get<bool>("regions_per_object");
+  options.progress_at_most_error = parameters.get<bool>("progress_at_most_error");
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   const std::string features_topic = parameters.get<std::string>("features_topic");
   const std::string motivation_topic = parameters.get<std::string>("motivation_topic");

@@ -106,27 +106,39 @@ TEST(AdaptiveRegions, ProgressWithAConfidenceShrinksTheDifferenceByItsStandardEr
   // Windows {0.4, 0.6} and {0.1, 0.3}: difference 0.3; each window's sample variance 0.02, so the standard
   // error of the difference is sqrt((0.02 + 0.02) / 2) = 0.1414.
   const std::vector<double> falling{0.4, 0.6, 0.1, 0.3};
-  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, 0.0), 0.3);
-  EXPECT_NEAR(AdaptiveRegions::progress(falling, 2, 1.0), 0.3 - std::sqrt(0.02), 1e-12);
-  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, 3.0), 0.0) << "within three standard errors: no progress";
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, {0.0}), 0.3);
+  EXPECT_NEAR(AdaptiveRegions::progress(falling, 2, {1.0}), 0.3 - std::sqrt(0.02), 1e-12);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(falling, 2, {3.0}), 0.0) << "within three standard errors: no progress";
   // A rise is shrunk towards 0 likewise, never past it.
   const std::vector<double> rising{0.1, 0.3, 0.4, 0.6};
-  EXPECT_NEAR(AdaptiveRegions::progress(rising, 2, 1.0), -0.3 + std::sqrt(0.02), 1e-12);
-  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(rising, 2, 3.0), 0.0);
+  EXPECT_NEAR(AdaptiveRegions::progress(rising, 2, {1.0}), -0.3 + std::sqrt(0.02), 1e-12);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(rising, 2, {3.0}), 0.0);
   // Steady errors have no spread: their fall counts whole.
-  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.5, 0.5, 0.2, 0.2}, 2, 2.0), 0.3);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.5, 0.5, 0.2, 0.2}, 2, {2.0}), 0.3);
   // Windows of one error have no standard error: unshrunk.
-  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.4, 0.2}, 5, 2.0), 0.2);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.4, 0.2}, 5, {2.0}), 0.2);
   ExperimentSpace s{{"a"}, {"-x"}, -1, 1, 0.01, 0.1};
-  EXPECT_THROW(AdaptiveRegions(s, Interest::Progress, 8, 2, -0.5), ValidationError);
+  EXPECT_THROW(AdaptiveRegions(s, Interest::Progress, 8, 2, {-0.5}), ValidationError);
   DesignOptions bad;
   bad.progress_confidence = NAN;
   EXPECT_THROW(bad.validate(), ValidationError);
 }
 
+TEST(AdaptiveRegions, ProgressAtMostTheErrorLeft) {
+  ProgressRules bounded;
+  bounded.at_most_recent_error = true;
+  // Learned at once: a fall of 0.3 to errors of 0.001; what is left to gain is 0.001.
+  const std::vector<double> learned{0.3, 0.3, 0.001, 0.001};
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(learned, 2), 0.299);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress(learned, 2, bounded), 0.001);
+  // Still learning: the fall is below the error left, so it counts whole; a rise is kept as it is.
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.5, 0.5, 0.4, 0.4}, 2, bounded), 0.5 - 0.4);
+  EXPECT_DOUBLE_EQ(AdaptiveRegions::progress({0.4, 0.4, 0.5, 0.5}, 2, bounded), 0.4 - 0.5);
+}
+
 TEST(AdaptiveRegions, PerObjectRegionsStartWithOneLeafPerObject) {
   ExperimentSpace s{{"a", "b", "c"}, {"-x", "+x"}, -1, 1, 0.01, 0.1};
-  AdaptiveRegions regions(s, Interest::Progress, 8, 3, 0.0, FirstCut::ByObject);
+  AdaptiveRegions regions(s, Interest::Progress, 8, 3, {}, FirstCut::ByObject);
   ASSERT_EQ(regions.leaves().size(), 3u);
   for (std::size_t object = 0; object < 3; ++object) {
     const Region& leaf = regions.region(regions.leafOf({object, 0, 0.0, 0.05}));

@@ -92,6 +92,7 @@ struct DesignOptions {
   /// gives (0..10).
   double progress_confidence = 0.0;
   bool regions_per_object = false;  ///< region designs: start with one region per object, not one for all
+  bool progress_at_most_error = false;  ///< learning progress counts at most the region's recent mean error
 
   /// Throw ValidationError (one sentence naming the option) unless the options are consistent.
   void validate() const;

@@ -17,7 +17,8 @@
  *    one, over the region's last 2 * progress_window errors in the order they were made (fewer errors: two
  *    halves). Errors that stay high (noise) or stay low (learned) give no progress. With progress_confidence
  *    z > 0 the difference is shrunk towards 0 by z of its standard errors (a confidence bound), so that the
- *    chance differences of a noisy region's windows count for little;
+ *    chance differences of a noisy region's windows count for little; with progress_at_most_error it counts at
+ *    most the newer window's mean error (what is left to learn);
  *  - mean recent error (ErrorMaxDesign): the mean of the region's last progress_window errors. It is the trap
  *    the comparison shows: it goes where the outcome is noise.
  * Each choice: with probability `random_share` a uniformly random push over the whole space (it keeps every
@@ -73,13 +74,21 @@ enum class Interest { Progress, Error };
 /// How the regions' tree starts: one region for the whole space, or one per object (cut by object first).
 enum class FirstCut { None, ByObject };
 
+/// How learning progress is read beyond its windows.
+struct ProgressRules {
+  double confidence = 0.0;  ///< shrink the windows' difference towards 0 by this many standard errors (0..10)
+  /// Count at most the newer window's mean error: a region cannot gain more than the error it has left, so an
+  /// object learned at once stops drawing choices as soon as its errors are ~0, not when they leave the windows.
+  bool at_most_recent_error = false;
+};
+
 /// The regions' tree over an experiment space. Not thread-safe.
 class AdaptiveRegions {
  public:
   /// Throws ValidationError for an empty space, bad ranges, region_max_size < 4, window < 1 or a confidence
   /// outside [0, 10].
   AdaptiveRegions(ExperimentSpace space, Interest interest, std::size_t region_max_size, std::size_t window,
-                  double confidence = 0.0, FirstCut first_cut = FirstCut::None);
+                  ProgressRules rules = {}, FirstCut first_cut = FirstCut::None);
 
   /// Adds an experiment (its point clamped into the space) with its held-out error (finite, >= 0); splits its
   /// region when it then holds more than region_max_size experiments and some cut leaves both sides at least
@@ -87,8 +96,9 @@ class AdaptiveRegions {
   void add(const SpacePoint& point, double error);
 
   /// Learning progress of errors in the order they were made (older window mean - newer window mean), shrunk
-  /// towards 0 by @p confidence standard errors of that difference (windows of one error have none: unshrunk).
-  static double progress(const std::vector<double>& errors, std::size_t window, double confidence = 0.0);
+  /// towards 0 by rules.confidence standard errors of that difference (windows of one error have none:
+  /// unshrunk), and with rules.at_most_recent_error at most the newer window's mean.
+  static double progress(const std::vector<double>& errors, std::size_t window, const ProgressRules& rules = {});
   /// Mean of the last @p window errors (0 for none).
   static double recentError(const std::vector<double>& errors, std::size_t window);
 
@@ -118,7 +128,7 @@ class AdaptiveRegions {
   Interest interest_;
   std::size_t region_max_size_;
   std::size_t window_;
-  double confidence_;
+  ProgressRules rules_;
   std::vector<SpacePoint> points_;
   std::vector<double> errors_;
   std::vector<Region> regions_;
