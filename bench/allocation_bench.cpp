@@ -41,15 +41,7 @@ struct Pool {
 Pool loadPool(const std::vector<std::string>& databases) {
   Pool pool;
   for (const auto& database : databases) {
-    auto kb = KnowledgeBase::open(database);
-    for (const auto& run : kb->runs()) {
-      const long designed = designedCount(run.parameters_json);
-      std::vector<ExperimentRecord> records;
-      for (const auto& r : kb->experiments(run.id, "done")) {
-        if (designed < 0 || r.seq <= designed) records.push_back(r);
-      }
-      for (const auto& s : pushSamples(records)) pool.by_object[s.input.experiment.object].push_back(s);
-    }
+    for (const auto& s : designedSamples(database)) pool.by_object[s.input.experiment.object].push_back(s);
   }
   for (const auto& [object, samples] : pool.by_object) {
     const bool moved = std::any_of(samples.begin(), samples.end(), [](const PushSample& s) {
@@ -128,12 +120,7 @@ int main(int argc, char** argv) {
     for (const auto& run : eval_kb->runs()) {
       for (const auto& r : eval_kb->experiments(run.id, "done")) evaluation_records.push_back(r);
     }
-    std::vector<std::string> identities;  // in scene order, as the study's curves have them
-    for (const auto& r : evaluation_records) {
-      for (const auto& o : r.before.objects) {
-        if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
-      }
-    }
+    const std::vector<std::string> identities = sceneIdentities(evaluation_records);
     const auto evaluation = pushSamples(evaluation_records);
     if (evaluation.empty()) throw std::runtime_error(evaluation_database + " has no successful experiment to evaluate on");
     std::set<std::string> evaluated;

@@ -1,5 +1,7 @@
 #include "xpersif/core/evaluation.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <map>
 #include <memory>
@@ -26,6 +28,31 @@ PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities) 
   config.one_hot_identity = true;
   config.identities = identities;
   return config;
+}
+
+std::vector<std::string> sceneIdentities(const std::vector<ExperimentRecord>& records) {
+  std::vector<std::string> identities;
+  for (const auto& r : records) {
+    for (const auto& o : r.before.objects) {
+      if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
+    }
+  }
+  return identities;
+}
+
+std::vector<PushSample> designedSamples(const std::string& database) {
+  auto kb = KnowledgeBase::open(database);
+  std::vector<PushSample> samples;
+  for (const auto& run : kb->runs()) {
+    const long designed = designedCount(run.parameters_json);
+    std::vector<ExperimentRecord> records;
+    for (const auto& r : kb->experiments(run.id, "done")) {
+      if (designed < 0 || r.seq <= designed) records.push_back(r);
+    }
+    const auto some = pushSamples(records);
+    samples.insert(samples.end(), some.begin(), some.end());
+  }
+  return samples;
 }
 
 LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,

@@ -74,13 +74,7 @@ int main(int argc, char** argv) {
   try {
     auto eval_kb = KnowledgeBase::open(evaluation_database);
     const auto evaluation_records = eval_kb->experiments(latestRun(*eval_kb, evaluation_run, evaluation_database).id, "done");
-    // Identities in the order the scene lists them (as MACHINELEARNING's one-hot code has them).
-    std::vector<std::string> identities;
-    for (const auto& r : evaluation_records) {
-      for (const auto& o : r.before.objects) {
-        if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
-      }
-    }
+    const std::vector<std::string> identities = sceneIdentities(evaluation_records);
     const auto evaluation = pushSamples(evaluation_records);
     if (evaluation.empty()) {
       throw std::runtime_error("run '" + evaluation_run + "' of " + evaluation_database +

@@ -2,6 +2,7 @@
 // fixed evaluation set, straight from the knowledge base's records.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
 
 #include "xpersif/core/evaluation.h"
@@ -105,4 +106,38 @@ TEST(Evaluation, APerObjectLearnerKnowsTheObjectThatNeverMovesFromAFewPushes) {
       learningCurve("unseen", pushSamples(without_blue), pushSamples(test), config, {m}, LearnerScope::PerObject);
   const LearningCurve unseen_shared = learningCurve("unseen", pushSamples(without_blue), pushSamples(test), config, {m});
   EXPECT_EQ(unseen.error[0], unseen_shared.error[0]);
+}
+
+TEST(Evaluation, DesignedSamplesLeaveOutFailedPushesAndTheGoalPushesAfterTheDesignedOnes) {
+  const std::string path = ::testing::TempDir() + "designed_samples.db";
+  std::remove(path.c_str());
+  std::mt19937 rng(3);
+  std::vector<ExperimentRecord> stored;
+  {
+    auto kb = KnowledgeBase::open(path);
+    const RunInfo run = kb->createRun("a", "{\"experiments\": 3}", 1, "random");
+    for (int seq = 1; seq <= 5; ++seq) {  // 1-3 designed (2 fails), 4-5 goal-directed pushes
+      ExperimentRecord r = synthetic(rng, seq);
+      r.run_id = run.id;
+      if (seq == 2) {
+        r.status = "failed";
+        r.outcome.reset();
+        r.failure_reason = "refused";
+      }
+      stored.push_back(kb->recordExperiment(r));
+    }
+  }
+  const auto samples = designedSamples(path);
+  ASSERT_EQ(samples.size(), 2u);
+  EXPECT_EQ(samples[0].input.experiment.object, stored[0].experiment.object);
+  EXPECT_EQ(samples[1].input.experiment.object, stored[2].experiment.object);
+  std::remove(path.c_str());
+}
+
+TEST(Evaluation, SceneIdentitiesKeepTheOrderTheScenesListThem) {
+  ExperimentRecord a, b;
+  a.before.objects = {ObjectFeatures{"red_cube", 0, 0, 0, {}}, ObjectFeatures{"blue_cube", 0, 0, 0, {}}};
+  b.before.objects = {ObjectFeatures{"blue_cube", 0, 0, 0, {}}, ObjectFeatures{"green_cube", 0, 0, 0, {}}};
+  EXPECT_EQ(sceneIdentities({a, b}), (std::vector<std::string>{"red_cube", "blue_cube", "green_cube"}));
+  EXPECT_TRUE(sceneIdentities({}).empty());
 }

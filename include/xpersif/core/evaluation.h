@@ -22,6 +22,13 @@ namespace xpersif::core {
 /// The learner's samples in a run's records, by the one rule of experiment_samples.h.
 std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records);
 
+/// The objects' names in the order the records' scenes list them (as MACHINELEARNING's one-hot code has them).
+std::vector<std::string> sceneIdentities(const std::vector<ExperimentRecord>& records);
+
+/// The learner's samples of the designed experiments of every run in @p database (a study cell's knowledge base):
+/// the successful ones up to the run's "experiments" count, so not the goal-directed pushes that follow them.
+std::vector<PushSample> designedSamples(const std::string& database);
+
 /// The configuration MACHINELEARNING uses: hue and size as features plus the objects' identities.
 PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities);
 
