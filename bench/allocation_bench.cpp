@@ -115,14 +115,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    auto eval_kb = KnowledgeBase::open(evaluation_database);
-    std::vector<ExperimentRecord> evaluation_records;
-    for (const auto& run : eval_kb->runs()) {
-      for (const auto& r : eval_kb->experiments(run.id, "done")) evaluation_records.push_back(r);
-    }
-    const std::vector<std::string> identities = sceneIdentities(evaluation_records);
-    const auto evaluation = pushSamples(evaluation_records);
-    if (evaluation.empty()) throw std::runtime_error(evaluation_database + " has no successful experiment to evaluate on");
+    const EvaluationSet evaluation_set = loadEvaluationSet(evaluation_database);
+    const std::vector<std::string>& identities = evaluation_set.identities;
+    const std::vector<PushSample>& evaluation = evaluation_set.samples;
     std::set<std::string> evaluated;
     for (const auto& s : evaluation) evaluated.insert(s.input.experiment.object);
 

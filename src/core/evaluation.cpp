@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -53,6 +54,17 @@ std::vector<PushSample> designedSamples(const std::string& database) {
     samples.insert(samples.end(), some.begin(), some.end());
   }
   return samples;
+}
+
+EvaluationSet loadEvaluationSet(const std::string& database) {
+  auto kb = KnowledgeBase::open(database);
+  std::vector<ExperimentRecord> records;
+  for (const auto& run : kb->runs()) {
+    for (const auto& r : kb->experiments(run.id, "done")) records.push_back(r);
+  }
+  EvaluationSet set{sceneIdentities(records), pushSamples(records)};
+  if (set.samples.empty()) throw std::runtime_error(database + " has no successful experiment to evaluate on");
+  return set;
 }
 
 LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,

@@ -128,6 +128,9 @@ TEST(Evaluation, DesignedSamplesLeaveOutFailedPushesAndTheGoalPushesAfterTheDesi
     }
   }
   const auto samples = designedSamples(path);
+  const EvaluationSet evaluation = loadEvaluationSet(path);  // every successful push of every run
+  EXPECT_EQ(evaluation.samples.size(), 4u);
+  EXPECT_EQ(evaluation.identities, sceneIdentities(stored));
   ASSERT_EQ(samples.size(), 2u);
   EXPECT_EQ(samples[0].input.experiment.object, stored[0].experiment.object);
   EXPECT_EQ(samples[1].input.experiment.object, stored[2].experiment.object);

@@ -29,6 +29,16 @@ std::vector<std::string> sceneIdentities(const std::vector<ExperimentRecord>& re
 /// the successful ones up to the run's "experiments" count, so not the goal-directed pushes that follow them.
 std::vector<PushSample> designedSamples(const std::string& database);
 
+/// A study's held-out evaluation set: its pushes as the learner's samples, and the objects' identities in scene order.
+struct EvaluationSet {
+  std::vector<std::string> identities;
+  std::vector<PushSample> samples;
+};
+
+/// The evaluation set in @p database: every successful experiment of every run. Throws std::runtime_error when it
+/// holds none.
+EvaluationSet loadEvaluationSet(const std::string& database);
+
 /// The configuration MACHINELEARNING uses: hue and size as features plus the objects' identities.
 PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities);
 
