@@ -55,6 +55,23 @@ ExperimentChoice sample(std::mt19937_64& rng, const std::vector<DesignObject>& o
 
 }  // namespace
 
+std::optional<ExperimentChoice> drawFeasible(const DesignContext& context,
+                                             const std::function<ExperimentChoice()>& draw, int* refused) {
+  const int tries = context.feasible ? kFeasibleDraws : 1;
+  for (int i = 0; i < tries; ++i) {
+    ExperimentChoice c = draw();
+    if (!context.feasible || context.feasible(c)) return c;
+    if (refused) ++*refused;
+  }
+  return std::nullopt;
+}
+
+std::string refusedNote(int refused, bool found) {
+  if (refused == 0) return "";
+  if (!found) return " (the push planner would refuse every push drawn: " + std::to_string(refused) + " draws)";
+  return " (" + std::to_string(refused) + (refused == 1 ? " draw" : " draws") + " the push planner would refuse skipped)";
+}
+
 std::string ExperimentChoice::toString() const {
   return "push " + object + " on " + side + ", offset " + metres(offset) + ", distance " + metres(distance);
 }
@@ -117,8 +134,11 @@ void RandomDesign::initialize(unsigned long seed, const DesignOptions& options) 
 ExperimentChoice RandomDesign::next(const DesignContext& context) {
   const auto objects = reachableObjects(context);
   if (context.stream) rng_.seed(*context.stream);
-  ExperimentChoice c = sample(rng_, objects, options_);
-  c.rationale = "random";
+  int refused = 0;
+  ExperimentChoice last;
+  const auto found = drawFeasible(context, [&] { return last = sample(rng_, objects, options_); }, &refused);
+  ExperimentChoice c = found ? *found : last;
+  c.rationale = "random" + refusedNote(refused, found.has_value());
   return c;
 }
 
@@ -142,6 +162,8 @@ ExperimentChoice GridDesign::next(const DesignContext& context) {
   const std::size_t total = cells(context.objects.size());
   if (!started_) cursor_ = context.history_count % total;
   started_ = true;
+  std::optional<ExperimentChoice> first;  // the first reachable cell: chosen when the planner refuses every cell
+  std::size_t first_cell = 0;
   for (std::size_t k = 0; k < total; ++k) {
     const std::size_t cell = (cursor_ + k) % total;
     const auto& object = context.objects[cell % context.objects.size()];
@@ -156,10 +178,19 @@ ExperimentChoice GridDesign::next(const DesignContext& context) {
     c.side = options_.sides[rest / n_off];
     c.offset = options_.grid_offsets[rest % n_off] * maxPushOffset(object.footprint, c.side);
     c.rationale = "grid cell " + std::to_string(cell + 1) + " of " + std::to_string(total);
+    if (!first) {
+      first = c;
+      first_cell = cell;
+    }
+    if (context.feasible && !context.feasible(c)) continue;
+    if (cell != first_cell) c.rationale += " (cells the push planner would refuse skipped)";
     cursor_ = (cell + 1) % total;
     return c;
   }
-  throw ValidationError("no grid cell has a reachable object");  // unreachable: reachableObjects checked
+  if (!first) throw ValidationError("no grid cell has a reachable object");  // unreachable: reachableObjects checked
+  first->rationale += " (the push planner would refuse every cell)";
+  cursor_ = (first_cell + 1) % total;
+  return *first;
 }
 
 // ---- curiosity --------------------------------------------------------------------------------------------
@@ -185,7 +216,14 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
   const bool explore = std::uniform_real_distribution<double>(0.0, 1.0)(rng) < options_.epsilon;
   std::vector<ExperimentChoice> candidates;
   candidates.reserve(options_.candidates);
-  for (std::size_t i = 0; i < options_.candidates; ++i) candidates.push_back(sample(rng, objects, options_));
+  int refused = 0;
+  bool all_found = true;
+  for (std::size_t i = 0; i < options_.candidates; ++i) {
+    ExperimentChoice last;
+    const auto found = drawFeasible(context, [&] { return last = sample(rng, objects, options_); }, &refused);
+    candidates.push_back(found ? *found : last);
+    all_found = all_found && found.has_value();
+  }
 
   std::size_t chosen = 0;
   double value = 0;
@@ -218,6 +256,7 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
   } else {
     why << "curiosity " << describeNumber(value) << ", best of " << candidates.size() << " candidates";
   }
+  why << refusedNote(refused, all_found);
   c.rationale = why.str();
   return c;
 }

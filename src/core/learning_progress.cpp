@@ -338,9 +338,14 @@ ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
     return c;
   };
   const std::string what = interest_ == Interest::Progress ? "learning progress" : "recent error";
+  int refused = 0;  // draws context.feasible rejected
+  bool feasible = true;
   ExperimentChoice choice;
   if (unit(rng) < options_.random_share) {
-    choice = point(regions->region(0));
+    ExperimentChoice last;
+    const auto found = drawFeasible(context, [&] { return last = point(regions->region(0)); }, &refused);
+    feasible = found.has_value();
+    choice = found ? *found : last;
     choice.rationale = "random exploration (random_share " + describeNumber(options_.random_share) + ")";
   } else {
     std::vector<int> leaves;
@@ -353,41 +358,53 @@ ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
       leaves.push_back(leaf);
       interest.push_back(regions->interest(leaf));
     }
-    std::size_t chosen = 0;
-    if (options_.region_choice == "greedy") {
-      if (unit(rng) < options_.epsilon) {
-        chosen = std::uniform_int_distribution<std::size_t>(0, leaves.size() - 1)(rng);
-      } else {
-        chosen = static_cast<std::size_t>(std::max_element(interest.begin(), interest.end()) - interest.begin());
+    // A leaf where no push can be done from where the objects are now (an object against a wall, pushed
+    // towards it) is left out and the choice made again among the rest.
+    std::vector<std::size_t> open(leaves.size());
+    std::iota(open.begin(), open.end(), 0);
+    auto choose = [&] {
+      if (options_.region_choice == "greedy") {
+        if (unit(rng) < options_.epsilon) return pick(open);
+        return *std::max_element(open.begin(), open.end(),
+                                 [&](std::size_t a, std::size_t b) { return interest[a] < interest[b]; });
       }
-    } else {
       // Temperature relative to the best interest (to the largest |interest| when none is positive), so that it
       // does not depend on the errors' unit and a noisy region's large fall of progress does not flatten the rest.
-      double largest = 0, top = interest.front();
-      for (double v : interest) {
-        largest = std::max(largest, std::fabs(v));
-        top = std::max(top, v);
+      double largest = 0, top = interest[open.front()];
+      for (std::size_t i : open) {
+        largest = std::max(largest, std::fabs(interest[i]));
+        top = std::max(top, interest[i]);
       }
       const double scale = top > 0 ? top : largest;
       std::vector<double> weights;
-      for (double v : interest) weights.push_back(scale > 1e-12 ? std::exp((v - top) / (options_.temperature * scale)) : 1.0);
-      double r = unit(rng) * std::accumulate(weights.begin(), weights.end(), 0.0);
-      chosen = weights.size() - 1;
-      for (std::size_t i = 0; i < weights.size(); ++i) {
-        if (r < weights[i]) {
-          chosen = i;
-          break;
-        }
-        r -= weights[i];
+      for (std::size_t i : open) {
+        weights.push_back(scale > 1e-12 ? std::exp((interest[i] - top) / (options_.temperature * scale)) : 1.0);
       }
+      double r = unit(rng) * std::accumulate(weights.begin(), weights.end(), 0.0);
+      for (std::size_t k = 0; k < weights.size(); ++k) {
+        if (r < weights[k]) return open[k];
+        r -= weights[k];
+      }
+      return open.back();
+    };
+    std::size_t chosen = choose();
+    const std::size_t first_chosen = chosen;
+    std::optional<ExperimentChoice> found;
+    while (!(found = drawFeasible(context, [&] { return point(regions->region(leaves[chosen])); }, &refused))) {
+      open.erase(std::find(open.begin(), open.end(), chosen));
+      if (open.empty()) break;
+      chosen = choose();
     }
-    choice = point(regions->region(leaves[chosen]));
+    feasible = found.has_value();
+    if (!found) chosen = first_chosen;  // no leaf has a feasible push: the first choice, to be refused downstream
+    choice = found ? *found : point(regions->region(leaves[chosen]));
     std::ostringstream why;
     why << what << " " << describeNumber(interest[chosen]) << " in region " << regions->describe(leaves[chosen])
         << " (" << regions->region(leaves[chosen]).members.size() << " experiments; " << leaves.size()
         << " regions, " << options_.region_choice << ")";
     choice.rationale = why.str();
   }
+  choice.rationale += refusedNote(refused, feasible);
   rng_ = rng;
   regions_ = std::move(regions);
   return choice;

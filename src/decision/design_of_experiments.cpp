@@ -7,7 +7,9 @@
 #include <optional>
 #include <set>
 
+#include "xpersif/core/push_motion.h"
 #include "xpersif/decision/decision_common.h"
+#include "xpersif/embodiment/robot_pose_source.h"  // sceneObstacles
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -47,6 +49,7 @@ DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle pri
       contract,
       [this](const DesignExperiment::Request& r) {
         core::requireMaxSize("reachable", r.reachable.size(), 64);
+        core::throwIfInvalid(checkScene(r.scene));
         if (r.design.empty()) return;
         std::lock_guard<std::mutex> lock(loader_mutex_);
         const std::string why = loader_.whyNot("design", r.design);
@@ -100,6 +103,9 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
                              "to learn)"),
          core::flagParameter("regions_per_object", d.regions_per_object,
                              "region designs: start with one region per object instead of one for the whole space"),
+         core::flagParameter("feasible_only", true,
+                             "choose only pushes MANIPULATION's planner would accept from the request's scene (a free "
+                             "approach spot, no wall or object in the way): a refused push costs an experiment"),
          core::textParameter("features_topic", "vision/features", "VISION's feature vectors (which objects are seen)"),
          core::textParameter("motivation_topic", "motivation/motivation", "MOTIVATION's regions and curiosity")});
     own.include(ExperimentFollower::Options::parameters()).include(setupCatalogueParameters());
@@ -134,6 +140,7 @@ void DesignOfExperiments::onConfigure() {
   options.progress_confidence = parameters.get<double>("progress_confidence");
   options.regions_per_object = parameters.get<bool>("regions_per_object");
   options.progress_at_most_error = parameters.get<bool>("progress_at_most_error");
+  const bool feasible_only = parameters.get<bool>("feasible_only");
   const ExperimentFollower::Options follow = ExperimentFollower::Options::fromParameters(pnh, name());
   const std::string features_topic = parameters.get<std::string>("features_topic");
   const std::string motivation_topic = parameters.get<std::string>("motivation_topic");
@@ -157,6 +164,10 @@ void DesignOfExperiments::onConfigure() {
     regions_ = std::move(map);
     objects_ = catalogue.names();
     footprints_ = regions.footprints;
+    arena_.size_x = catalogue.arena_size_x;
+    arena_.size_y = catalogue.arena_size_y;
+    robot_radius_ = catalogue.robot_radius;
+    feasible_only_ = feasible_only;
     optimistic_ = optimistic;
     designed_ = 0;
     curiosity_.clear();
@@ -306,6 +317,19 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   for (const auto& name : objects_) context.objects.push_back({name, can.count(name) > 0, footprints_.at(name)});
   context.history_count = request.seeded ? request.experiment : designed_;
   if (request.seeded) context.stream = request.stream;
+  // Only pushes MANIPULATION's planner would accept from where the request's scene has the objects (as GOALDESIGN
+  // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; objects beyond ~objects are not
+  // known here, so a push into one of them is left for MANIPULATION to refuse.
+  if (feasible_only_ && !request.scene.objects.empty()) {
+    context.feasible = [this, others = sceneObstacles(request.scene, footprints_)](
+                           const core::ExperimentChoice& c) {
+      const auto seen = std::find_if(others.begin(), others.end(), [&](const auto& o) { return o.name == c.object; });
+      if (seen == others.end()) return false;
+      core::PushOptions push;
+      push.max_distance = c.distance;  // the distance's limit is MANIPULATION's valid_push, not checked here
+      return core::planPush(*seen, {c.object, c.side, c.offset, c.distance}, robot_radius_, arena_, others, push).ok;
+    };
+  }
   // Curiosity of a candidate: MOTIVATION's value for its region, optimistic where it has none.
   context.curiosity = [this](const core::ExperimentChoice& c) {
     const core::RegionKey key = regions_->regionOf(core::Experiment{c.object, c.side, c.offset, c.distance});

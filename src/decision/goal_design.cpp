@@ -11,20 +11,6 @@
 
 namespace xpersif {
 
-namespace {
-
-std::string checkScene(const FeatureVector& scene) {
-  std::string why = core::checkMaxSize("scene.objects", scene.objects.size(), core::kMaxObjectsPerFeatureVector);
-  for (std::size_t i = 0; why.empty() && i < scene.objects.size(); ++i) {
-    const auto& o = scene.objects[i];
-    const std::string field = "scene.objects[" + std::to_string(i) + "]";
-    why = core::checkAllFinite(field + " pose", {o.position.x, o.position.y, o.yaw});
-    if (why.empty()) why = core::checkAllFinite(field + ".feature_values", o.feature_values);
-  }
-  return why;
-}
-}  // namespace
-
 GoalDesign::GoalDesign(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/GoalDesignNodelet"),
       loader_("xpersif::core::PushModel", "push model") {

@@ -902,6 +902,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       request.request.stream = core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Design);
       request.request.experiment = done;
       request.request.run_id = result.run_id;
+      request.request.scene = scene;  // so that DESIGNOFEXPERIMENTS chooses a push that can be done from here
       Spending spending(wall_spent_, "design");
       why = callWhenReady(nodeHandle(), "design_of_experiments/design_experiment", request,
                           [&] { return context.stopRequested(); });

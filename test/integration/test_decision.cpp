@@ -19,6 +19,7 @@
 #include "xpersif/DesignGoal.h"
 #include "xpersif/ExecutePlanAction.h"
 #include "xpersif/GetFeatures.h"
+#include "xpersif/GetScene.h"
 #include "xpersif/GetState.h"
 #include "xpersif/LearnedModel.h"
 #include "xpersif/MakePlan.h"
@@ -26,6 +27,9 @@
 #include "xpersif/Notions.h"
 #include "xpersif/SetPose.h"
 #include "xpersif/core/push_learner.h"
+#include "xpersif/core/push_motion.h"
+#include "xpersif/core/setup.h"
+#include "xpersif/ros/conversions.h"
 
 using xpersif_test::callService;
 using xpersif_test::transition;
@@ -64,13 +68,18 @@ xpersif::PlanStep pushStep(const std::string& object, const std::string& side, c
 
 class Decision : public ::testing::Test {
  protected:
+  // A failed ASSERT in SetUpTestSuite would only skip the tests, and skipped tests pass: the wait's verdict is
+  // kept and every test's SetUp fails on it.
   static void SetUpTestSuite() {
     std::string which;
-    ASSERT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 90.0))
-        << which << " did not become ACTIVE";
+    if (!waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 90.0)) {
+      not_active_ = which + " did not become ACTIVE within 90 s";
+    }
   }
+  static inline std::string not_active_;
 
   void SetUp() override {
+    ASSERT_TRUE(not_active_.empty()) << not_active_;
     truth_ = std::make_unique<GroundTruth>(nh_);
     ASSERT_TRUE(waitFor([&] { return truth_->ready(); }, 20.0));
     ASSERT_TRUE(waitFor([&] { return xpersif_test::featuresFresh(ns + "vision/get_features"); }, 30.0));
@@ -189,6 +198,79 @@ TEST_F(Decision, EveryDesignGivesValidExperimentsAndAnUnknownDesignFailsConfigur
   ros::param::set(ns + "design_of_experiments/design", std::string("curiosity"));
   ASSERT_TRUE(transition(ns + "design_of_experiments", "configure").success);
   ASSERT_TRUE(transition(ns + "design_of_experiments", "activate").success);
+}
+
+TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
+  xpersif::GetScene described;
+  ASSERT_TRUE(callService(ns + "xpersim/get_scene", described));
+  ASSERT_TRUE(described.response.success) << described.response.message;
+  const auto setup = xpersif::core::SetupCatalogue::fromScene(xpersif::fromSceneMsg(described.response.scene));
+  std::map<std::string, xpersif::core::Footprint> footprints;
+  for (const auto& o : setup.objects) footprints[o.name] = o.footprint;
+  xpersif::GetFeatures seen;
+  ASSERT_TRUE(callService(ns + "vision/get_features", seen));
+  ASSERT_TRUE(seen.response.success) << seen.response.message;
+  // The scene as the request gives it: red_cube close to the +x wall, with just room for the robot beside it.
+  // Pushing it on -x soon drives it into the wall; its +x face cannot be reached.
+  xpersif::FeatureVector scene = seen.response.features;
+  auto red = std::find_if(scene.objects.begin(), scene.objects.end(), [](const auto& o) { return o.name == "red_cube"; });
+  ASSERT_NE(red, scene.objects.end());
+  double ex = 0, ey = 0;
+  xpersif::core::worldHalfExtents(footprints.at("red_cube"), 0.0, ex, ey);
+  red->position.x = setup.arena_size_x / 2 - ex - setup.robot_radius;
+  red->position.y = 0.0;
+  red->yaw = 0.0;
+  for (auto& o : scene.objects) {  // the others out of its way
+    if (o.name != "red_cube") o.position.x = std::min(o.position.x, 0.0);
+  }
+  // The oracle: MANIPULATION's planner (core::planPush) on that scene.
+  std::vector<xpersif::core::Obstacle> obstacles;
+  for (const auto& o : scene.objects) {
+    if (footprints.count(o.name)) obstacles.push_back({o.name, o.position.x, o.position.y, o.yaw, footprints.at(o.name)});
+  }
+  xpersif::core::ArenaGeometry arena;
+  arena.size_x = setup.arena_size_x;
+  arena.size_y = setup.arena_size_y;
+  auto accepted = [&](const xpersif::Experiment& e) {
+    xpersif::core::PushOptions options;
+    options.max_distance = e.distance;
+    const auto pushed = std::find_if(obstacles.begin(), obstacles.end(), [&](const auto& o) { return o.name == e.object; });
+    return xpersif::core::planPush(*pushed, {e.object, e.side, e.offset, e.distance}, setup.robot_radius, arena,
+                                   obstacles, options);
+  };
+  auto designRed = [&] {
+    xpersif::DesignExperiment call;
+    call.request.reachable = {"red_cube"};
+    call.request.scene = scene;
+    EXPECT_TRUE(callService(ns + "design_of_experiments/design_experiment", call));
+    EXPECT_TRUE(call.response.success) << call.response.message;
+    return call;
+  };
+  for (const std::string name : {"random", "grid", "curiosity", "learning_progress", "error_max"}) {
+    reconfigure(name);
+    for (int i = 0; i < 12; ++i) {
+      const auto call = designRed();
+      const auto plan = accepted(call.response.experiment);
+      EXPECT_TRUE(plan.ok) << name << ": " << call.response.message << " (" << call.response.rationale
+                           << ") would be refused: " << plan.reason;
+    }
+  }
+  // ~feasible_only false: the request's scene is not consulted, and pushes the planner refuses come back.
+  ros::param::set(ns + "design_of_experiments/feasible_only", false);
+  reconfigure("random");
+  int refused = 0;
+  for (int i = 0; i < 40; ++i) refused += accepted(designRed().response.experiment).ok ? 0 : 1;
+  EXPECT_GT(refused, 10);
+  ros::param::set(ns + "design_of_experiments/feasible_only", true);
+  reconfigure("curiosity");
+  // A scene that is not numbers is refused, naming the field; nothing is designed.
+  xpersif::DesignExperiment bad;
+  bad.request.scene = scene;
+  bad.request.scene.objects[0].position.x = std::nan("");
+  ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", bad));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_EQ(bad.response.code, xpersif::ResultCode::INVALID);
+  EXPECT_NE(bad.response.message.find("scene.objects[0] pose"), std::string::npos) << bad.response.message;
 }
 
 TEST_F(Decision, CuriosityFollowsMotivationsRegions) {

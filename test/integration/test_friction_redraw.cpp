@@ -33,14 +33,18 @@ struct Push {
 
 class FrictionRedraw : public ::testing::Test {
  protected:
+  // A failed ASSERT in SetUpTestSuite would only skip the tests, and skipped tests pass: the wait's verdict is
+  // kept and every test's SetUp fails on it.
   static void SetUpTestSuite() {
     std::string which;
-    ASSERT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, {"robot_model", "manipulation", "observation"}, &which); },
-                        90.0))
-        << which << " did not become ACTIVE";
+    if (!waitFor([&] { return xpersif_test::allActive(ns, {"robot_model", "manipulation", "observation"}, &which); }, 90.0)) {
+      not_active_ = which + " did not become ACTIVE within 90 s";
+    }
   }
+  static inline std::string not_active_;
 
   void SetUp() override {
+    ASSERT_TRUE(not_active_.empty()) << not_active_;
     truth_ = std::make_unique<GroundTruth>(nh_);
     ASSERT_TRUE(waitFor([&] { return truth_->ready(); }, 20.0));
     ASSERT_TRUE(waitFor([&] { return xpersif_test::featuresFresh(ns + "observation/get_features"); }, 30.0));

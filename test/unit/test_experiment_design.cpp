@@ -228,6 +228,83 @@ TEST(ExperimentDesign, UnreachableObjectsAreNeverChosen) {
   }
 }
 
+TEST(ExperimentDesign, PushesThePlannerWouldRefuseAreNotChosen) {
+  // A planner that refuses every push of red_cube, every push on +x and every push longer than 0.1 m.
+  auto allowed = [](const ExperimentChoice& e) { return e.object != "red_cube" && e.side != "+x" && e.distance <= 0.1; };
+  int asked = 0;
+  DesignContext c = cubes();
+  c.feasible = [&](const ExperimentChoice& e) {
+    ++asked;
+    return allowed(e);
+  };
+  c.curiosity = [](const ExperimentChoice& e) { return e.object == "red_cube" || e.side == "+x" ? 9.0 : 0.0; };
+  // A history in which red_cube's errors fall fastest: the region designs would favour it.
+  for (int i = 0; i < 120; ++i) {
+    const std::string object = i % 2 ? "red_cube" : "green_cube";
+    c.history.push_back({object, "-y", 0.0, 0.05, object == "red_cube" ? 0.05 * std::exp(-i / 30.0) : 0.01});
+  }
+  DesignOptions o;
+  o.regions_per_object = true;
+  for (const auto& name : designNames()) {
+    auto d = makeDesign(name, 5, o);
+    std::set<std::string> objects, sides;
+    for (const auto& e : run(*d, c, 200)) {
+      EXPECT_TRUE(allowed(e)) << name << ": " << e.toString() << " (" << e.rationale << ")";
+      objects.insert(e.object);
+      sides.insert(e.side);
+    }
+    // Everything allowed stays open: three objects, three sides.
+    EXPECT_EQ(objects.size(), name == "curiosity" ? objects.size() : 3u) << name;
+    EXPECT_EQ(sides.size(), name == "curiosity" ? sides.size() : 3u) << name;
+  }
+  EXPECT_GT(asked, 1000);
+  // Rejections are said in the rationale (random: a third of the draws or more are refused here).
+  RandomDesign r(9);
+  bool said = false;
+  for (const auto& e : run(r, c, 20)) said = said || e.rationale.find("the push planner would refuse skipped") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
+TEST(ExperimentDesign, APlannerThatAcceptsEveryPushChangesNoChoice) {
+  DesignContext plain = cubes();
+  plain.curiosity = peaked;
+  for (int i = 0; i < 60; ++i) plain.history.push_back({i % 3 ? "red_cube" : "blue_cube", "+y", 0.0, 0.05, 0.02 / (1 + i)});
+  DesignContext accepting = plain;
+  accepting.feasible = [](const ExperimentChoice&) { return true; };
+  for (const auto& name : designNames()) {
+    auto a = makeDesign(name, 11);
+    auto b = makeDesign(name, 11);
+    const auto ra = run(*a, plain, 60);
+    const auto rb = run(*b, accepting, 60);
+    for (int i = 0; i < 60; ++i) {
+      EXPECT_TRUE(same(ra[i], rb[i])) << name << " #" << i;
+      EXPECT_EQ(ra[i].rationale, rb[i].rationale) << name << " #" << i;
+    }
+  }
+}
+
+TEST(ExperimentDesign, WhenThePlannerRefusesEveryPushADesignStillChoosesAndSaysSo) {
+  DesignContext c = cubes();
+  c.curiosity = peaked;
+  c.feasible = [](const ExperimentChoice&) { return false; };
+  for (const auto& name : designNames()) {
+    auto d = makeDesign(name, 2);
+    const ExperimentChoice e = d->next(c);  // no throw: MANIPULATION refuses it and the loop records why
+    EXPECT_FALSE(e.object.empty()) << name;
+    EXPECT_NE(e.rationale.find("would refuse every"), std::string::npos) << name << ": " << e.rationale;
+  }
+}
+
+TEST(GridDesign, SkipsCellsThePlannerWouldRefuse) {
+  GridDesign d;
+  DesignContext c = cubes();
+  c.feasible = [](const ExperimentChoice& e) { return e.side != "-x"; };
+  const auto first = d.next(c);  // cells 1..24 are on -x: the first +x cell is 25
+  EXPECT_EQ(first.side, "+x");
+  EXPECT_EQ(first.rationale, "grid cell 25 of 96 (cells the push planner would refuse skipped)");
+  EXPECT_EQ(d.next(c).rationale, "grid cell 26 of 96");
+}
+
 TEST(ExperimentDesign, NothingToPushIsAClearError) {
   DesignContext empty;
   empty.curiosity = peaked;

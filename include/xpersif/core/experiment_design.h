@@ -7,7 +7,8 @@
  * An experiment is a push: the robot drives against one face of a cube (side, in the cube's frame: "-x",
  * "+x", "-y", "+y"; the push goes along the face's inward normal), at a lateral offset of the contact point
  * from the face's centre, for a distance after contact. Every design is seeded and deterministic: the same
- * seed and the same sequence of contexts give the same experiments. Unreachable objects are never chosen.
+ * seed and the same sequence of contexts give the same experiments. Unreachable objects are never chosen, and
+ * with a context's `feasible` set no push it rejects is chosen while another can be found (drawFeasible).
  */
 #pragma once
 
@@ -63,7 +64,22 @@ struct DesignContext {
   /// The run's successful experiments so far, in order, with their held-out errors; required (possibly empty)
   /// by designs whose usesHistory() is true.
   std::vector<PastExperiment> history;
+  /// Whether a push can be done from where the objects are now (DESIGNOFEXPERIMENTS: MANIPULATION's push
+  /// planner on the request's scene: a free approach spot, no wall or object in the way). Unset: every push
+  /// can. A refused push teaches nothing and costs an experiment of the budget, so designs draw again instead.
+  std::function<bool(const ExperimentChoice&)> feasible;
 };
+
+/// Draws a design makes for one choice before it gives up on `feasible` (kept small: each is a push plan).
+constexpr int kFeasibleDraws = 64;
+
+/// Calls @p draw until context.feasible accepts what it gives, at most kFeasibleDraws times (once when
+/// feasible is unset). Returns the first accepted draw, or nothing; @p refused (optional) counts the rejected.
+std::optional<ExperimentChoice> drawFeasible(const DesignContext& context,
+                                             const std::function<ExperimentChoice()>& draw, int* refused = nullptr);
+/// For rationales: "" when nothing was refused; otherwise how many draws the planner would refuse were skipped,
+/// or (@p found false) that none was feasible, so that the choice will be refused.
+std::string refusedNote(int refused, bool found);
 
 /// Offsets are fractions in [-1, 1] of each pushed face's offset limit (maxPushOffset, footprint.h), so one
 /// set of options fits objects of every shape and size; distances are metres, normally the set-up's
@@ -118,7 +134,8 @@ class ExperimentDesign {
   virtual bool usesHistory() const { return false; }
 };
 
-/// Uniform over reachable objects, sides, offsets and distances (within the options' bounds).
+/// Uniform over reachable objects, sides, offsets and distances (within the options' bounds), and over the
+/// feasible ones among them when the context says which are (rejection; the last draw when none is found).
 class RandomDesign : public ExperimentDesign {
  public:
   RandomDesign() = default;
@@ -133,7 +150,8 @@ class RandomDesign : public ExperimentDesign {
 
 /**
  * Cycles through sides x grid_offsets x grid_distances x objects in that nesting order (object innermost, so
- * that every budget spreads over all objects evenly), skipping cells whose object is unreachable now. The
+ * that every budget spreads over all objects evenly), skipping cells whose object is unreachable now or whose
+ * push the context's `feasible` rejects (when every cell is rejected: the first reachable one). The
  * cursor is the grid cell after the last one chosen; it wraps around. A new grid asked with a history (a
  * resumed run) starts at cell history_count: the same cell as the uninterrupted run unless cells were skipped.
  */
@@ -154,7 +172,7 @@ class GridDesign : public ExperimentDesign {
 };
 
 /**
- * Samples `candidates` random pushes and chooses the one with the highest curiosity; with probability
+ * Samples `candidates` random pushes (feasible ones, as RandomDesign) and chooses the one with the highest curiosity; with probability
  * epsilon it chooses a uniformly random one of them instead, so every push keeps a chance of being tried.
  * Ties go to the candidate sampled first (deterministic for a seed). A NaN curiosity is an error.
  */

@@ -23,6 +23,10 @@ namespace xpersif {
 /// A contract as get_contracts sends it. Throws core::ContractError for an unknown kind.
 core::Contract fromContractMsg(const Contract& message);
 
+/// Why @p scene cannot be used (more objects than a feature vector may hold, a non-finite pose or feature),
+/// or "" (requests that carry a scene: DesignGoal, ChoosePush, DesignExperiment).
+std::string checkScene(const FeatureVector& scene);
+
 /// "[a, b, c]" (contract bindings and messages).
 std::string joinNames(const std::vector<std::string>& names);
 

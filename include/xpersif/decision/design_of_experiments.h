@@ -39,6 +39,7 @@
 #include "xpersif/FeatureVector.h"
 #include "xpersif/Motivation.h"
 #include "xpersif/cognition/experiment_follower.h"
+#include "xpersif/core/motion_control.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/experiment_design.h"
 #include "xpersif/core/motivation.h"
@@ -85,6 +86,9 @@ class DesignOfExperiments : public Component {
   std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
   std::vector<std::string> objects_;
   std::map<std::string, core::Footprint> footprints_;
+  core::ArenaGeometry arena_;        // the scene's, for the feasibility of pushes
+  double robot_radius_ = 0.0;  // m
+  bool feasible_only_ = true;  // ~feasible_only
   double optimistic_ = 1.0;
   std::size_t designed_ = 0;
   std::map<std::string, double> curiosity_;  // region key -> curiosity, from the latest Motivation
