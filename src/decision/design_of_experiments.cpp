@@ -9,7 +9,6 @@
 
 #include "xpersif/core/push_motion.h"
 #include "xpersif/decision/decision_common.h"
-#include "xpersif/embodiment/robot_pose_source.h"  // sceneObstacles
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -49,7 +48,20 @@ DesignOfExperiments::DesignOfExperiments(ros::NodeHandle nh, ros::NodeHandle pri
       contract,
       [this](const DesignExperiment::Request& r) {
         core::requireMaxSize("reachable", r.reachable.size(), 64);
-        core::throwIfInvalid(checkScene(r.scene));
+        core::requireMaxSize("scene_objects", r.scene_objects.size(), core::kMaxObjectsPerFeatureVector);
+        core::requireMaxSize("scene_poses", r.scene_poses.size(), core::kMaxObjectsPerFeatureVector);
+        if (r.scene_poses.size() != r.scene_objects.size()) {
+          throw core::ValidationError("scene_poses has " + std::to_string(r.scene_poses.size()) + " poses for " +
+                                      std::to_string(r.scene_objects.size()) +
+                                      " scene_objects; they must be parallel");
+        }
+        for (std::size_t i = 0; i < r.scene_objects.size(); ++i) {
+          const std::string at = "scene_poses[" + std::to_string(i) + "]";
+          core::requireMaxLength("scene_objects[" + std::to_string(i) + "]", r.scene_objects[i], core::kMaxNameLength);
+          core::requireFinite(at + ".x", r.scene_poses[i].x);
+          core::requireFinite(at + ".y", r.scene_poses[i].y);
+          core::requireFinite(at + ".theta", r.scene_poses[i].theta);
+        }
         if (r.design.empty()) return;
         std::lock_guard<std::mutex> lock(loader_mutex_);
         const std::string why = loader_.whyNot("design", r.design);
@@ -320,8 +332,15 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   // Only pushes MANIPULATION's planner would accept from where the request's scene has the objects (as GOALDESIGN
   // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; objects beyond ~objects are not
   // known here, so a push into one of them is left for MANIPULATION to refuse.
-  if (feasible_only_ && !request.scene.objects.empty()) {
-    context.feasible = [this, others = sceneObstacles(request.scene, footprints_)](
+  if (feasible_only_ && !request.scene_objects.empty()) {
+    std::vector<core::Obstacle> seen_objects;
+    for (std::size_t i = 0; i < request.scene_objects.size(); ++i) {
+      const auto footprint = footprints_.find(request.scene_objects[i]);
+      if (footprint == footprints_.end()) continue;
+      const auto& pose = request.scene_poses[i];
+      seen_objects.push_back({request.scene_objects[i], pose.x, pose.y, pose.theta, footprint->second});
+    }
+    context.feasible = [this, others = std::move(seen_objects)](
                            const core::ExperimentChoice& c) {
       const auto seen = std::find_if(others.begin(), others.end(), [&](const auto& o) { return o.name == c.object; });
       if (seen == others.end()) return false;

@@ -238,10 +238,20 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
     return xpersif::core::planPush(*pushed, {e.object, e.side, e.offset, e.distance}, setup.robot_radius, arena,
                                    obstacles, options);
   };
+  auto withScene = [&](xpersif::DesignExperiment& call) {
+    for (const auto& o : scene.objects) {
+      call.request.scene_objects.push_back(o.name);
+      geometry_msgs::Pose2D pose;
+      pose.x = o.position.x;
+      pose.y = o.position.y;
+      pose.theta = o.yaw;
+      call.request.scene_poses.push_back(pose);
+    }
+  };
   auto designRed = [&] {
     xpersif::DesignExperiment call;
     call.request.reachable = {"red_cube"};
-    call.request.scene = scene;
+    withScene(call);
     EXPECT_TRUE(callService(ns + "design_of_experiments/design_experiment", call));
     EXPECT_TRUE(call.response.success) << call.response.message;
     return call;
@@ -263,14 +273,21 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
   EXPECT_GT(refused, 10);
   ros::param::set(ns + "design_of_experiments/feasible_only", true);
   reconfigure("curiosity");
-  // A scene that is not numbers is refused, naming the field; nothing is designed.
+  // A scene that is not numbers, or names without poses, is refused, naming the field; nothing is designed.
   xpersif::DesignExperiment bad;
-  bad.request.scene = scene;
-  bad.request.scene.objects[0].position.x = std::nan("");
+  withScene(bad);
+  bad.request.scene_poses[0].x = std::nan("");
   ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", bad));
   EXPECT_FALSE(bad.response.success);
   EXPECT_EQ(bad.response.code, xpersif::ResultCode::INVALID);
-  EXPECT_NE(bad.response.message.find("scene.objects[0] pose"), std::string::npos) << bad.response.message;
+  EXPECT_NE(bad.response.message.find("scene_poses[0].x"), std::string::npos) << bad.response.message;
+  xpersif::DesignExperiment unpaired;
+  withScene(unpaired);
+  unpaired.request.scene_poses.pop_back();
+  ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", unpaired));
+  EXPECT_FALSE(unpaired.response.success);
+  EXPECT_EQ(unpaired.response.code, xpersif::ResultCode::INVALID);
+  EXPECT_NE(unpaired.response.message.find("parallel"), std::string::npos) << unpaired.response.message;
 }
 
 TEST_F(Decision, CuriosityFollowsMotivationsRegions) {

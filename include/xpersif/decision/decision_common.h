@@ -24,7 +24,7 @@ namespace xpersif {
 core::Contract fromContractMsg(const Contract& message);
 
 /// Why @p scene cannot be used (more objects than a feature vector may hold, a non-finite pose or feature),
-/// or "" (requests that carry a scene: DesignGoal, ChoosePush, DesignExperiment).
+/// or "" (requests that carry a scene: DesignGoal, ChoosePush).
 std::string checkScene(const FeatureVector& scene);
 
 /// "[a, b, c]" (contract bindings and messages).
