@@ -38,7 +38,12 @@ LockstepClient::LockstepClient(ros::NodeHandle nh, const ros::NodeHandle& privat
   tick_spinner_->start();
 }
 
-LockstepClient::~LockstepClient() { leave(); }
+LockstepClient::~LockstepClient() {
+  // The tick thread first (stop() waits for a tick in flight), so that no tick is handled while leaving or after.
+  if (tick_spinner_) tick_spinner_->stop();
+  tick_sub_.shutdown();
+  leave();
+}
 
 bool LockstepClient::joined() const {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -177,7 +182,7 @@ bool LockstepClient::sleepFor(const ros::Duration& duration, const std::function
   return true;
 }
 
-void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
+void LockstepClient::onTick(std::function<void(LockstepClient&, const Tick&)> callback) {
   std::lock_guard<std::mutex> lock(mutex_);
   on_tick_ = std::move(callback);
 }
@@ -185,7 +190,7 @@ void LockstepClient::onTick(std::function<void(const Tick&)> callback) {
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
   Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time,
             message->epoch};
-  std::function<void(const Tick&)> callback;
+  std::function<void(LockstepClient&, const Tick&)> callback;
   bool rejoin = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -237,7 +242,7 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
     }
     return;
   }
-  if (callback) callback(tick);
+  if (callback) callback(*this, tick);
 }
 
 }  // namespace xpersif

@@ -113,7 +113,7 @@ void Perception::onActivate() {
   }
   // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
   next_due_ = 0;
-  lockstep_->onTick([this](const LockstepClient::Tick& t) {
+  lockstep_->onTick([this](LockstepClient& client, const LockstepClient::Tick& t) {
     // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
     // idle tick shows the standing world again (to whoever waits for a new frame).
     // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
@@ -126,7 +126,7 @@ void Perception::onActivate() {
     auto camera = camera_.camera();
     if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = tick(t.stamp);  // well within the clock's patience
     if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
-    lockstep_->report(t, false, published, {}, next_due_);
+    client.report(t, false, published, {}, next_due_);
   });
   lockstep_->join();
 }

@@ -422,8 +422,8 @@ TEST_F(LockstepHungTest, ASensorJoinsANewClockByItself) {
   ASSERT_TRUE(sensor.enabled());
   std::mutex mutex;
   int reports = 0;
-  sensor.onTick([&](const xpersif::LockstepClient::Tick& t) {
-    sensor.report(t, false, false);
+  sensor.onTick([&](xpersif::LockstepClient& client, const xpersif::LockstepClient::Tick& t) {
+    client.report(t, false, false);
     std::lock_guard<std::mutex> lock(mutex);
     ++reports;
   });

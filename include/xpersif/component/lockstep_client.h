@@ -82,8 +82,10 @@ class LockstepClient {
   /// Let @p duration of simulated time pass: in lockstep, take part as an actor that wants time until it has
   /// passed (time never passes on its own there); otherwise sleep on ROS time. False when @p stop says so.
   bool sleepFor(const ros::Duration& duration, const std::function<bool()>& stop = nullptr);
-  /// Sensor: called (in the client's own tick thread) for every SENSE tick while joined; it must call report().
-  void onTick(std::function<void(const Tick&)> callback);
+  /// Sensor: called (in the client's own tick thread) for every SENSE tick while joined; it must call report() on
+  /// the client it is given. (Not through the owner's pointer to the client: a tick in flight while the owner resets
+  /// that pointer found it null, and a deactivated OBSERVATION took its whole manager down: SIGSEGV.)
+  void onTick(std::function<void(LockstepClient& client, const Tick& tick)> callback);
 
  private:
   void onTickMessage(const LockstepTick::ConstPtr& message);
@@ -103,7 +105,7 @@ class LockstepClient {
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
   std::uint64_t latest_act_clock_ = 0;  // the clock latest_act_ is of
   bool joining_ = false;  // a join call is under way: its first ACT tick may come before its answer
-  std::function<void(const Tick&)> on_tick_;
+  std::function<void(LockstepClient&, const Tick&)> on_tick_;
   ros::Publisher done_pub_;
   std::unique_ptr<ros::AsyncSpinner> tick_spinner_;  // serves tick_queue_ only
   ros::Subscriber tick_sub_;  // last: destroyed first
