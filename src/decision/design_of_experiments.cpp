@@ -286,6 +286,14 @@ std::string DesignOfExperiments::candidates(const DesignExperiment::Request& req
     }
     return objects->empty() ? "none of the listed objects is one of ~objects " + joinNames(objects_) : "";
   }
+  // The request's scene, when it has one: what the caller observed at this step, not the latest vector heard,
+  // which may be of another moment (during the last push) from one run of the same campaign to the next.
+  if (!request.scene_objects.empty()) {
+    for (const auto& name : request.scene_objects) {
+      if (std::find(objects_.begin(), objects_.end(), name) != objects_.end()) objects->push_back(name);
+    }
+    return objects->empty() ? "the request's scene shows none of ~objects " + joinNames(objects_) : "";
+  }
   if (!latest_features_) {
     return "the request lists no reachable object and no feature vector has arrived on " +
            features_topic_ + " yet";
