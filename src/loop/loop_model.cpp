@@ -902,14 +902,8 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
       request.request.stream = core::streamSeed(goal.seed, result.run_id, done, core::StreamPurpose::Design);
       request.request.experiment = done;
       request.request.run_id = result.run_id;
-      for (const auto& o : scene.objects) {  // so that DESIGNOFEXPERIMENTS chooses a push that can be done from here
-        request.request.scene_objects.push_back(o.name);
-        geometry_msgs::Pose2D pose;
-        pose.x = o.position.x;
-        pose.y = o.position.y;
-        pose.theta = o.yaw;
-        request.request.scene_poses.push_back(pose);
-      }
+      // The scene, so that DESIGNOFEXPERIMENTS chooses a push that can be done from here.
+      appendScenePoses(scene, &request.request.scene_objects, &request.request.scene_poses);
       Spending spending(wall_spent_, "design");
       why = callWhenReady(nodeHandle(), "design_of_experiments/design_experiment", request,
                           [&] { return context.stopRequested(); });

@@ -191,4 +191,16 @@ const ObjectFeatures* findObject(const FeatureVector& features, const std::strin
   return nullptr;
 }
 
+void appendScenePoses(const FeatureVector& features, std::vector<std::string>* names,
+                      std::vector<geometry_msgs::Pose2D>* poses) {
+  for (const auto& o : features.objects) {
+    names->push_back(o.name);
+    geometry_msgs::Pose2D pose;
+    pose.x = o.position.x;
+    pose.y = o.position.y;
+    pose.theta = o.yaw;
+    poses->push_back(pose);
+  }
+}
+
 }  // namespace xpersif

@@ -30,6 +30,7 @@
 #include "xpersif/core/push_motion.h"
 #include "xpersif/core/setup.h"
 #include "xpersif/ros/conversions.h"
+#include "xpersif/ros/experiment_conversions.h"
 
 using xpersif_test::callService;
 using xpersif_test::transition;
@@ -239,14 +240,7 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
                                    obstacles, options);
   };
   auto withScene = [&](xpersif::DesignExperiment& call) {
-    for (const auto& o : scene.objects) {
-      call.request.scene_objects.push_back(o.name);
-      geometry_msgs::Pose2D pose;
-      pose.x = o.position.x;
-      pose.y = o.position.y;
-      pose.theta = o.yaw;
-      call.request.scene_poses.push_back(pose);
-    }
+    xpersif::appendScenePoses(scene, &call.request.scene_objects, &call.request.scene_poses);
   };
   auto designRed = [&] {
     xpersif::DesignExperiment call;

@@ -11,6 +11,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
+
+#include <geometry_msgs/Pose2D.h>
 
 #include "xpersif/Experiment.h"
 #include "xpersif/ExperimentRecord.h"
@@ -50,5 +53,10 @@ core::Notion fromMsg(const Notion& msg);
 
 /// The object called @p name in @p features, or nullptr.
 const ObjectFeatures* findObject(const FeatureVector& features, const std::string& name);
+
+/// Appends the name and the pose (x, y, yaw) of each object of @p features to the parallel @p names and @p poses:
+/// the scene as DesignExperiment's scene_objects and scene_poses carry it.
+void appendScenePoses(const FeatureVector& features, std::vector<std::string>* names,
+                      std::vector<geometry_msgs::Pose2D>* poses);
 
 }  // namespace xpersif
