@@ -78,6 +78,11 @@ interrupt() {  # interrupt NAME kill:M1+M2|stop:M1+M2: SIGKILL them, or SIGSTOP 
   fi
 }
 
+launch_trouble() {  # launch_trouble NAME: what the take's system said went wrong (CI keeps no log file)
+  echo "determinism: $1: the last warnings and errors of its launch log:"
+  grep -aE "WARN|ERROR|died|restarting|components up" "$work/$1.launch.log" | tail -40 | cut -c1-400 || true
+}
+
 battery_plan() {  # battery_plan SEED: "K D kill:MANAGERS" lines, the seeded moments of one battery take
   /usr/bin/python3 - "$1" "${KILLS_PER_TAKE:-2}" <<'PLAN'
 import random, sys
@@ -206,7 +211,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
       else
         interrupt "$name" "$interrupt"
       fi
-      wait "$runner" || { cat "$work/$name.run1.log"; exit 1; }
+      wait "$runner" || { cat "$work/$name.run1.log"; launch_trouble "$name"; exit 1; }
       tail -1 "$work/$name.run1.log"
     fi
   else

@@ -9,6 +9,7 @@
 #include <nodelet/NodeletUnload.h>
 
 #include <algorithm>
+#include <chrono>
 #include <set>
 #include <stdexcept>
 
@@ -143,19 +144,65 @@ void Supervisor::onActivate() {
   // Bring-up runs in the supervisor's own thread, never in a manager's callback thread: the components
   // may live in the supervisor's own manager and need its threads to answer the calls.
   monitoring_ = true;
+  setBringUp(BringUp::Running, "");
   monitor_thread_ = std::thread([this] {
+    const ros::WallTime began = ros::WallTime::now();
     for (const auto& component : components_) {
-      if (!monitoring_) return;
-      try {
-        bringUp(component);
-      } catch (const std::exception& e) {
-        monitoring_ = false;
-        reportError("could not start " + component.name + ": " + e.what());
+      if (!monitoring_) {
+        setBringUp(BringUp::Failed, "supervision stopped while " + component.name + " was still to start");
         return;
       }
+      setBringUp(BringUp::Running, component.name);
+      for (int attempt = 1;; ++attempt) {
+        try {
+          bringUp(component);
+          break;
+        } catch (const std::exception& e) {
+          // Its manager died while it was being started (a crash battery's kill; a crash the transition itself
+          // caused): once the respawned manager answers without it, it is started again, from loading.
+          if (attempt < kBringUpAttempts && monitoring_ && restart_ && managerAnswers(component.manager) &&
+              !loadedIn(component)) {
+            ROS_WARN_STREAM(name() << ": " << component.name << " went with its manager while it was being started ("
+                                   << e.what() << "); starting it again");
+            continue;
+          }
+          monitoring_ = false;
+          const std::string why = "could not start " + component.name + ": " + e.what();
+          setBringUp(BringUp::Failed, why);
+          reportError(why);
+          return;
+        }
+      }
     }
+    setBringUp(BringUp::Done, "");
+    ROS_INFO_STREAM(name() << ": " << components_.size() << " components up in "
+                           << core::describeNumber((ros::WallTime::now() - began).toSec()) << " s");
     monitorLoop();
   });
+}
+
+void Supervisor::setBringUp(BringUp state, const std::string& note) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bring_up_ = state;
+    bring_up_note_ = note;
+  }
+  bring_up_changed_.notify_all();
+}
+
+std::string Supervisor::waitUntilUp(double patience, const std::function<bool()>& stop) const {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(patience);
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (bring_up_ != BringUp::Done) {
+    if (bring_up_ == BringUp::Failed) return bring_up_note_;
+    if (bring_up_ == BringUp::Idle) return name() + " is not supervising (not ACTIVE)";
+    if (stop && stop()) return "stopped while " + bring_up_note_ + " was starting";
+    if (std::chrono::steady_clock::now() >= until) {
+      return bring_up_note_ + " is still starting after " + core::describeNumber(patience) + " s";
+    }
+    bring_up_changed_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+  return "";
 }
 
 void Supervisor::onDeactivate() {
@@ -194,6 +241,7 @@ void Supervisor::onShutdown() {
 void Supervisor::stopMonitor() {
   monitoring_ = false;
   if (monitor_thread_.joinable()) monitor_thread_.join();
+  setBringUp(BringUp::Idle, "");
 }
 
 bool Supervisor::managerAnswers(const std::string& manager) const {
@@ -212,11 +260,7 @@ void Supervisor::load(const SupervisedComponent& component) const {
       ros::param::set(component.name + "/" + it->first, it->second);
     }
   }
-  nodelet::NodeletList list;
-  if (ros::service::call(list_service, list)) {
-    const auto& loaded = list.response.nodelets;
-    if (std::find(loaded.begin(), loaded.end(), component.name) != loaded.end()) return;
-  }
+  if (loadedIn(component)) return;
   nodelet::NodeletLoad load;
   load.request.name = component.name;
   load.request.type = component.type;
@@ -224,6 +268,13 @@ void Supervisor::load(const SupervisedComponent& component) const {
     throw std::runtime_error("manager " + component.manager + " could not load " + component.type + " as " +
                              component.name + " (is the type in a nodelet_plugins.xml? see the manager's log)");
   }
+}
+
+bool Supervisor::loadedIn(const SupervisedComponent& component) const {
+  nodelet::NodeletList list;
+  if (!ros::service::call(component.manager + "/list", list)) return false;
+  const auto& loaded = list.response.nodelets;
+  return std::find(loaded.begin(), loaded.end(), component.name) != loaded.end();
 }
 
 bool Supervisor::unload(const SupervisedComponent& component, std::string* why) const {
@@ -252,12 +303,18 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
   Transition call;
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(startup_timeout_);
   while (!ros::service::call(service, call)) {
+    if (managerAnswers(component.manager) && !loadedIn(component)) {  // a respawned manager, without it
+      throw std::runtime_error(component.name + " is no longer loaded in " + component.manager +
+                               " (the manager was restarted)");
+    }
     if (ros::WallTime::now() >= until) {
       throw std::runtime_error("call to " + service + " failed (asked again for " +
                                core::describeNumber(startup_timeout_) + " s)");
     }
     ros::WallDuration(0.2).sleep();
-    ros::service::waitForService(service, ros::Duration(std::max(0.01, (until - ros::WallTime::now()).toSec())));
+    // In slices, so that a manager that comes back without it is noticed above.
+    ros::service::waitForService(service,
+                                 ros::Duration(std::clamp((until - ros::WallTime::now()).toSec(), 0.01, 1.0)));
   }
   // An already reached state (e.g. configure on an INACTIVE component re-reads parameters) is fine.
   if (!call.response.success && call.response.state != static_cast<std::uint8_t>(core::targetOf(transition))) {

@@ -775,6 +775,18 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
 
   wall_spent_.clear();
   const ros::WallTime run_started = ros::WallTime::now();
+  // A LOOPMODEL just restarted is sent the run again as soon as it offers `run`, while its components are still
+  // starting: the run waits for all of them (each step of a bring-up is bounded by ~startup_timeout), rather than
+  // for one service at a time with a patience that a slow restart outlasts.
+  std::string why;
+  {
+    Spending spending(wall_spent_, "starting");
+    setState("starting");
+    publishProgress(&context);
+    why = waitUntilUp(startupTimeout() * static_cast<double>(supervised().size() + 1),
+                      [&] { return context.cancelRequested() || context.stopRequested() || stop_requested_; });
+  }
+  if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot start the run: " + why);
   StartRun start;
   start.request.name = goal.name;
   start.request.seed = goal.seed;
@@ -788,7 +800,7 @@ CommandOutcome LoopModel::run(Run::Context& context, RunLoopResult& result) {
   if (!goal.provenance.empty()) parameters << ",\"provenance\":" << goal.provenance;
   parameters << "}";
   start.request.parameters = parameters.str();
-  std::string why = callPatiently(nodeHandle(), "knowledge_base/start_run", start);
+  why = callPatiently(nodeHandle(), "knowledge_base/start_run", start);
   if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot start the run: " + why);
   result.run_id = start.response.run_id;
   if (arrange_at_start_ && !start.response.resumed) {

@@ -13,6 +13,7 @@
 
 #include "test_helpers.h"
 #include "xpersif/GetState.h"
+#include "xpersif/component/supervisor.h"
 
 using xpersif::ComponentEvent;
 using xpersif::ComponentStatus;
@@ -67,6 +68,35 @@ int runConsole(const std::string& arguments, std::string* output) {
   while (fgets(buffer, sizeof buffer, pipe)) *output += buffer;
   const int status = pclose(pipe);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// A supervisor in this process, so that the test can ask what a command of its asks (Supervisor::waitUntilUp).
+class InProcessSupervisor : public xpersif::Supervisor {
+ public:
+  InProcessSupervisor(const std::string& name, const std::string& component, const std::string& type,
+                      const std::string& manager, double startup_timeout)
+      : Supervisor(ros::NodeHandle(), ros::NodeHandle(name)) {
+    XmlRpc::XmlRpcValue components;
+    components[0]["name"] = component;
+    components[0]["type"] = type;
+    components[0]["manager"] = manager;
+    ros::param::set(name + "/components", components);
+    ros::param::set(name + "/startup_timeout", startup_timeout);
+    start();
+  }
+  ~InProcessSupervisor() override { halt(); }
+  using Supervisor::waitUntilUp;
+};
+
+// Start a nodelet manager named @p name as a process of its own; its pid.
+pid_t startManager(const std::string& name) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const std::string remap = "__name:=" + name;
+    execlp("rosrun", "rosrun", "nodelet", "nodelet", "manager", remap.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
 }
 
 }  // namespace
@@ -134,6 +164,36 @@ TEST_F(Supervision, AComponentThatCannotBeStartedPutsTheSupervisorInErrorWithThe
   EXPECT_NE(failed.last_error.find("could not start /ghost: manager /loop_manager could not load xpersif/NoSuchNodelet"),
             std::string::npos)
       << failed.last_error;
+}
+
+// A command of a supervisor just (re)started (LOOPMODEL's run, sent again by the console as soon as LOOPMODEL offers
+// it) waits for the bring-up, however long its steps take, and otherwise says which component is not up and why.
+TEST_F(Supervision, ACommandCanWaitUntilEveryComponentIsUpAndIsToldWhichIsNot) {
+  InProcessSupervisor late("/waiting_supervisor", "late_counter", "xpersif/ExampleCounterNodelet", "late_manager", 120.0);
+  EXPECT_NE(late.waitUntilUp(1.0, {}).find("is not supervising"), std::string::npos) << "not ACTIVE yet";
+  ASSERT_TRUE(late.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(late.transition(xpersif::LifecycleTransition::Activate).success);
+  // Its manager is not running yet: the bring-up waits for it (up to ~startup_timeout).
+  std::string why = late.waitUntilUp(1.0, {});
+  EXPECT_NE(why.find("/late_counter is still starting after 1 s"), std::string::npos) << why;
+  why = late.waitUntilUp(60.0, [] { return true; });
+  EXPECT_NE(why.find("stopped while /late_counter was starting"), std::string::npos) << why;
+
+  const pid_t manager = startManager("late_manager");
+  ASSERT_GT(manager, 0);
+  why = late.waitUntilUp(90.0, {});
+  EXPECT_EQ(why, "") << "the bring-up goes on once the manager answers";
+  EXPECT_EQ(stateOf("/late_counter"), ComponentStatus::ACTIVE);
+  kill(manager, SIGINT);
+  waitpid(manager, nullptr, 0);
+
+  InProcessSupervisor broken("/broken_waiting_supervisor", "ghost_too", "xpersif/NoSuchNodelet", "loop_manager", 5.0);
+  ASSERT_TRUE(broken.transition(xpersif::LifecycleTransition::Configure).success);
+  broken.transition(xpersif::LifecycleTransition::Activate);
+  why = broken.waitUntilUp(90.0, {});
+  EXPECT_NE(why.find("could not start /ghost_too: manager /loop_manager could not load xpersif/NoSuchNodelet"),
+            std::string::npos)
+      << why;
 }
 
 TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerIsBack) {

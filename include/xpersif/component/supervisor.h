@@ -28,6 +28,8 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 
 #include <atomic>
+#include <condition_variable>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -87,10 +89,18 @@ class Supervisor : public Component {
   void requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const;
   /// Load a component into its manager (unless it is already loaded there) and set its parameters.
   void load(const SupervisedComponent& component) const;
+  /// Whether its manager lists it as loaded (false when the manager does not answer).
+  bool loadedIn(const SupervisedComponent& component) const;
   /// Unload a component from its manager; returns false (and says why) if that did not work.
   bool unload(const SupervisedComponent& component, std::string* why) const;
   /// Load, configure and (if asked) activate one component, waiting for it to answer.
   void bringUp(const SupervisedComponent& component);
+  /// Waits until the bring-up that activation began has passed every component: "" then; otherwise why not (a
+  /// component could not be started, supervision stopped, @p stop said so, or @p patience s of wall time passed,
+  /// naming the component still starting). A command that needs the components calls it first: a supervisor just
+  /// (re)started is asked for work as soon as it is ACTIVE, while its components are still starting.
+  std::string waitUntilUp(double patience, const std::function<bool()>& stop) const;
+  double startupTimeout() const { return startup_timeout_; }
 
  private:
   struct Observed {
@@ -109,6 +119,9 @@ class Supervisor : public Component {
   void stopMonitor();
   bool managerAnswers(const std::string& manager) const;
   void supervisionEvent(const std::string& name, const std::string& outcome, const std::string& reason);
+  enum class BringUp { Idle, Running, Done, Failed };
+  static constexpr int kBringUpAttempts = 3;  // per component, when its manager dies while it is being started
+  void setBringUp(BringUp state, const std::string& note);
 
   std::vector<SupervisedComponent> components_;
   double heartbeat_timeout_ = 1.0;
@@ -122,6 +135,9 @@ class Supervisor : public Component {
 
   std::thread monitor_thread_;
   std::atomic<bool> monitoring_{false};
+  BringUp bring_up_ = BringUp::Idle;  // guarded by mutex_, like bring_up_note_
+  std::string bring_up_note_;          // the component being brought up, or why the bring-up failed or stopped
+  mutable std::condition_variable bring_up_changed_;
 };
 
 }  // namespace xpersif
