@@ -4,8 +4,9 @@
  *        components. LOOPMODEL (the loop) and ROBOTMODEL (the embodiment) are organizational.
  *
  * Activating it starts supervision: in its own thread it loads, configures and activates the components
- * in order (a component that cannot be started puts the supervisor in ERROR, with the reason), then
- * watches them. It loads its components into nodelet managers through their `load_nodelet` / `unload_nodelet`
+ * in order (a component that cannot be started puts the supervisor in ERROR, with the reason; one whose manager
+ * died and came back meanwhile is started again, up to kBringUpAttempts times), then watches them. A command
+ * that needs the components waits for that bring-up first (waitUntilUp). It loads its components into nodelet managers through their `load_nodelet` / `unload_nodelet`
  * services, sets their parameters, drives their lifecycle services, and watches their `~status`
  * heartbeats: a component (or its whole manager) that goes silent for `~heartbeat_timeout` seconds is
  * reported lost on `~events` and in `~status`; with `~restart` set, it is loaded and started again once
