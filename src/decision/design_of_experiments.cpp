@@ -9,6 +9,7 @@
 
 #include "xpersif/core/push_motion.h"
 #include "xpersif/decision/decision_common.h"
+#include "xpersif/embodiment/robot_pose_source.h"  // sceneObstacles
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -341,14 +342,7 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; objects beyond ~objects are not
   // known here, so a push into one of them is left for MANIPULATION to refuse.
   if (feasible_only_ && !request.scene_objects.empty()) {
-    std::vector<core::Obstacle> seen_objects;
-    for (std::size_t i = 0; i < request.scene_objects.size(); ++i) {
-      const auto footprint = footprints_.find(request.scene_objects[i]);
-      if (footprint == footprints_.end()) continue;
-      const auto& pose = request.scene_poses[i];
-      seen_objects.push_back({request.scene_objects[i], pose.x, pose.y, pose.theta, footprint->second});
-    }
-    context.feasible = [this, others = std::move(seen_objects)](
+    context.feasible = [this, others = sceneObstacles(request.scene_objects, request.scene_poses, footprints_)](
                            const core::ExperimentChoice& c) {
       const auto seen = std::find_if(others.begin(), others.end(), [&](const auto& o) { return o.name == c.object; });
       if (seen == others.end()) return false;

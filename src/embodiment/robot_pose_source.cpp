@@ -139,6 +139,18 @@ std::vector<core::Obstacle> sceneObstacles(const FeatureVector& scene,
   return result;
 }
 
+std::vector<core::Obstacle> sceneObstacles(const std::vector<std::string>& names,
+                                           const std::vector<geometry_msgs::Pose2D>& poses,
+                                           const std::map<std::string, core::Footprint>& footprints) {
+  std::vector<core::Obstacle> result;
+  for (std::size_t i = 0; i < names.size() && i < poses.size(); ++i) {
+    const auto footprint = footprints.find(names[i]);
+    if (footprint == footprints.end()) continue;
+    result.push_back({names[i], poses[i].x, poses[i].y, poses[i].theta, footprint->second});
+  }
+  return result;
+}
+
 std::vector<core::Obstacle> RobotPoseSource::obstacles(const std::map<std::string, core::Footprint>& footprints,
                                                        double max_age) const {
   const auto seen = observation(max_age);

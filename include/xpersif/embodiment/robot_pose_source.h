@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <geometry_msgs/Pose2D.h>
+
 #include "xpersif/FeatureVector.h"
 #include "xpersif/core/motion.h"
 #include "xpersif/core/pose_estimate.h"
@@ -24,6 +26,10 @@ namespace xpersif {
 
 /// The objects of @p scene as obstacles, with footprints from @p footprints (unknown names are skipped).
 std::vector<core::Obstacle> sceneObstacles(const FeatureVector& scene,
+                                           const std::map<std::string, core::Footprint>& footprints);
+/// The same for a scene as parallel names and poses (DesignExperiment's scene_objects and scene_poses).
+std::vector<core::Obstacle> sceneObstacles(const std::vector<std::string>& names,
+                                           const std::vector<geometry_msgs::Pose2D>& poses,
                                            const std::map<std::string, core::Footprint>& footprints);
 
 class RobotPoseSource {
