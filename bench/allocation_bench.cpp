@@ -26,8 +26,8 @@
 #include <random>
 #include <set>
 
-#include "xpersif/core/evaluation.h"
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/evaluation/evaluation.h"
+#include "xpersif/core/learning/push_learner.h"
 
 using namespace xpersif::core;
 

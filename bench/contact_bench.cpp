@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/experiment.h"
-#include "xpersif/core/motion.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/setup.h"
+#include "xpersif/core/common/experiment.h"
+#include "xpersif/core/motion/motion.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/setup.h"
 
 using namespace xpersif::core;
 

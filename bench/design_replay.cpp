@@ -25,15 +25,15 @@
 #include <map>
 #include <set>
 
-#include "xpersif/core/evaluation.h"
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/motivation.h"
-#include "xpersif/core/per_object_push_model.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/push_learner.h"
-#include "xpersif/core/random_stream.h"
-#include "xpersif/core/setup.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/evaluation/evaluation.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/learning/motivation.h"
+#include "xpersif/core/learning/per_object_push_model.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/learning/push_learner.h"
+#include "xpersif/core/common/random_stream.h"
+#include "xpersif/core/common/setup.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
 

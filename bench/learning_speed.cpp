@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/learning/push_learner.h"
 
 using namespace xpersif::core;
 

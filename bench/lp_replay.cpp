@@ -15,11 +15,11 @@
 #include <iostream>
 #include <map>
 
-#include "xpersif/core/evaluation.h"
-#include "xpersif/core/learning_progress.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/setup.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/evaluation/evaluation.h"
+#include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/setup.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
 

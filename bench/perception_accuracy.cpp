@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "perception_scenes.h"
-#include "xpersif/core/perception.h"
+#include "xpersif/core/perception/feature_extractor.h"
 
 using namespace perception_bench;
 

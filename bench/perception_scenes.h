@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/renderer.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/render/renderer.h"
+#include "xpersif/core/sim/world_spec.h"
 
 namespace perception_bench {
 

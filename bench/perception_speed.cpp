@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "perception_scenes.h"
-#include "xpersif/core/perception.h"
-#include "xpersif/core/vision.h"
+#include "xpersif/core/perception/feature_extractor.h"
+#include "xpersif/core/perception/vision.h"
 
 using namespace perception_bench;
 using Clock = std::chrono::steady_clock;

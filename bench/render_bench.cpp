@@ -13,7 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #endif
 
-#include "xpersif/core/renderer.h"
+#include "xpersif/core/render/renderer.h"
 
 using namespace xpersif::core;
 

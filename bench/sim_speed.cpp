@@ -29,8 +29,8 @@
 
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/WheelSpeeds.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using xpersif::core::LinkSpec;
 using xpersif::core::Shape;

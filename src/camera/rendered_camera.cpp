@@ -2,7 +2,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -1,6 +1,6 @@
 #include "xpersif/camera/sim_camera.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>

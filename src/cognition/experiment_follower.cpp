@@ -1,8 +1,8 @@
 #include "xpersif/cognition/experiment_follower.h"
 
 #include "xpersif/GetExperiments.h"
-#include "xpersif/component/parameters.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/component/parameter_reader.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

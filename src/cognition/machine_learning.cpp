@@ -1,12 +1,12 @@
 #include "xpersif/cognition/machine_learning.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "xpersif/core/experiment_samples.h"
-#include "xpersif/core/vision.h"
+#include "xpersif/core/evaluation/experiment_samples.h"
+#include "xpersif/core/perception/vision.h"
 #include "xpersif/ros/experiment_conversions.h"
 #include "xpersif/ros/setup_loader.h"
 

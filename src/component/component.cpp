@@ -1,7 +1,7 @@
 #include "xpersif/component/component.h"
 
 #include "xpersif/Contract.h"
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 namespace xpersif {
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <nodelet/NodeletList.h>
 #include <nodelet/NodeletLoad.h>

@@ -1,6 +1,6 @@
 #include "xpersif/decision/decision_common.h"
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -1,13 +1,13 @@
 #include "xpersif/decision/design_of_experiments.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <set>
 
-#include "xpersif/core/push_motion.h"
+#include "xpersif/core/motion/push_motion.h"
 #include "xpersif/decision/decision_common.h"
 #include "xpersif/embodiment/robot_pose_source.h"  // sceneObstacles
 #include "xpersif/ros/setup_loader.h"

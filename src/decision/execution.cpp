@@ -1,6 +1,6 @@
 #include "xpersif/decision/execution.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +12,7 @@
 #include "xpersif/ResultCode.h"
 #include "xpersif/component/action_wait.h"
 #include "xpersif/decision/decision_common.h"
-#include "xpersif/decision/planner.h"
+#include "xpersif/decision/planner_component.h"
 
 namespace xpersif {
 

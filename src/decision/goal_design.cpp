@@ -1,6 +1,6 @@
 #include "xpersif/decision/goal_design.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/world_spec.h"
 
 namespace xpersif {
 

@@ -1,6 +1,6 @@
 #include "xpersif/embodiment/manipulation.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <algorithm>
 #include <cmath>

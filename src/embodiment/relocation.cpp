@@ -1,6 +1,6 @@
 #include "xpersif/embodiment/relocation.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,6 +1,6 @@
 #include "xpersif/embodiment/robot_model.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 namespace xpersif {
 

@@ -1,7 +1,7 @@
 #include "xpersif/loop/loop_model.h"
 
 #include "xpersif/ros/setup_loader.h"
-#include "xpersif/core/random_stream.h"
+#include "xpersif/core/common/random_stream.h"
 
 #include <algorithm>
 #include <cmath>
@@ -27,8 +27,8 @@
 #include "xpersif/UseFeatures.h"
 #include "xpersif/WorldState.h"
 #include "xpersif/component/action_wait.h"
-#include "xpersif/component/parameters.h"
-#include "xpersif/core/motivation.h"
+#include "xpersif/component/parameter_reader.h"
+#include "xpersif/core/learning/motivation.h"
 #include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {

@@ -1,6 +1,6 @@
 #include "xpersif/examples/example_counter.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <pluginlib/class_list_macros.hpp>
 

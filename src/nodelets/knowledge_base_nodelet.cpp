@@ -1,7 +1,7 @@
-// KNOWLEDGEBASE as a nodelet (see include/xpersif/cognition/knowledge_base.h).
+// KNOWLEDGEBASE as a nodelet (see include/xpersif/cognition/knowledge_base_component.h).
 #include <pluginlib/class_list_macros.hpp>
 
-#include "xpersif/cognition/knowledge_base.h"
+#include "xpersif/cognition/knowledge_base_component.h"
 #include "xpersif/component/shells.h"
 
 namespace xpersif {

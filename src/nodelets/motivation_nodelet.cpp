@@ -1,7 +1,7 @@
-// MOTIVATION as a nodelet (see include/xpersif/cognition/motivation.h).
+// MOTIVATION as a nodelet (see include/xpersif/cognition/motivation_component.h).
 #include <pluginlib/class_list_macros.hpp>
 
-#include "xpersif/cognition/motivation.h"
+#include "xpersif/cognition/motivation_component.h"
 #include "xpersif/component/shells.h"
 
 namespace xpersif {

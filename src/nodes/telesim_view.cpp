@@ -15,7 +15,7 @@
 #include <mutex>
 #include <vector>
 
-#include "xpersif/core/renderer.h"
+#include "xpersif/core/render/renderer.h"
 #include "xpersif/ros/scene_tracker.h"
 
 namespace {

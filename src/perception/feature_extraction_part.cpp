@@ -1,8 +1,8 @@
 #include "xpersif/perception/feature_extraction_part.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -5,9 +5,9 @@
 #include <cstdio>
 
 #include "xpersif/GetExperiments.h"
-#include "xpersif/core/experiment_samples.h"
-#include "xpersif/core/validation.h"
-#include "xpersif/component/parameters.h"
+#include "xpersif/core/evaluation/experiment_samples.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/component/parameter_reader.h"
 #include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {

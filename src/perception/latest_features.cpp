@@ -1,6 +1,6 @@
 #include "xpersif/perception/latest_features.h"
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

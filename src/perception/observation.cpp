@@ -1,6 +1,6 @@
 #include "xpersif/perception/observation.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <cmath>
 #include <std_msgs/UInt64MultiArray.h>

@@ -1,6 +1,6 @@
 #include "xpersif/perception/perception.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 
 namespace xpersif {

@@ -6,12 +6,12 @@
  */
 #include <pluginlib/class_list_macros.hpp>
 
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/gaussian_process_push_model.h"
-#include "xpersif/core/learning_progress.h"
-#include "xpersif/core/per_object_push_model.h"
-#include "xpersif/core/plan_search.h"
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/learning/gaussian_process_push_model.h"
+#include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/learning/per_object_push_model.h"
+#include "xpersif/core/planning/plan_search.h"
+#include "xpersif/core/learning/push_learner.h"
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::PushLearner, xpersif::core::PushModel)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GaussianProcessPushModel, xpersif::core::PushModel)

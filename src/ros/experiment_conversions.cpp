@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -3,9 +3,9 @@
 #include <stdexcept>
 
 #include "xpersif/GetScene.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/validation.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/core/sim/world_spec.h"
 #include "xpersif/ros/conversions.h"
 
 namespace xpersif {

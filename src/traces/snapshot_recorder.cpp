@@ -1,6 +1,6 @@
 #include "xpersif/traces/snapshot_recorder.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <rosbag/bag.h>
 #include <std_msgs/String.h>

@@ -1,6 +1,6 @@
 #include "xpersif/web/web_bridge.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <ros/package.h>
 #include <std_srvs/Trigger.h>
@@ -30,7 +30,7 @@
 #include "xpersif/RunLoopActionGoal.h"
 #include "xpersif/RunLoopFeedback.h"
 #include "xpersif/Scene.h"
-#include "xpersif/core/web_stream.h"
+#include "xpersif/core/web/web_stream.h"
 #include "xpersif/ros/conversions.h"
 
 namespace xpersif {

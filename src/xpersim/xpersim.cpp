@@ -1,6 +1,6 @@
 #include "xpersif/xpersim/xpersim.h"
 
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>

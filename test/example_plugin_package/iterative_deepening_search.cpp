@@ -8,7 +8,7 @@
 #include <set>
 #include <vector>
 
-#include "xpersif/core/plan_search.h"
+#include "xpersif/core/planning/plan_search.h"
 
 namespace xpersif_example_plugins {
 

@@ -10,7 +10,7 @@
 #include "xpersif/AddValues.h"
 #include "xpersif/CountToAction.h"
 #include "xpersif/component/component.h"
-#include "xpersif/component/parameters.h"
+#include "xpersif/component/parameter_reader.h"
 #include "xpersif/component/shells.h"
 
 namespace xpersif_test {

@@ -29,10 +29,10 @@
 #include "xpersif/Predict.h"
 #include "xpersif/RecordExperiment.h"
 #include "xpersif/StartRun.h"
-#include "xpersif/core/knowledge_base.h"
-#include "xpersif/core/motivation.h"
-#include "xpersif/core/gaussian_process_push_model.h"
-#include "xpersif/core/push_learner.h"
+#include "xpersif/core/kb/knowledge_base.h"
+#include "xpersif/core/learning/motivation.h"
+#include "xpersif/core/learning/gaussian_process_push_model.h"
+#include "xpersif/core/learning/push_learner.h"
 
 using xpersif::ComponentStatus;
 using xpersif::ExperimentRecord;

@@ -15,7 +15,7 @@
 #include "xpersif/GetContracts.h"
 #include "xpersif/GetState.h"
 #include "xpersif/GetSummary.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 using xpersif::ComponentEvent;
 using xpersif::ComponentStatus;

@@ -26,9 +26,9 @@
 #include "xpersif/Motivation.h"
 #include "xpersif/Notions.h"
 #include "xpersif/SetPose.h"
-#include "xpersif/core/push_learner.h"
-#include "xpersif/core/push_motion.h"
-#include "xpersif/core/setup.h"
+#include "xpersif/core/learning/push_learner.h"
+#include "xpersif/core/motion/push_motion.h"
+#include "xpersif/core/common/setup.h"
 #include "xpersif/ros/conversions.h"
 #include "xpersif/ros/experiment_conversions.h"
 

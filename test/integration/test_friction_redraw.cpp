@@ -14,7 +14,7 @@
 #include "ground_truth.h"
 #include "test_helpers.h"
 #include "xpersif/PushAction.h"
-#include "xpersif/core/physics_world.h"
+#include "xpersif/core/sim/physics_world.h"
 
 using xpersif_test::GroundTruth;
 using xpersif_test::Planar;

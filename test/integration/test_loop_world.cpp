@@ -15,7 +15,7 @@
 #include "xpersif/GetExperiments.h"
 #include "xpersif/GetNotions.h"
 #include "xpersif/RunLoopAction.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using xpersif_test::waitFor;
 

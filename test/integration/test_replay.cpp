@@ -36,7 +36,7 @@
 #include "xpersif/ExperimentRecord.h"
 #include "xpersif/FeatureVector.h"
 #include "xpersif/LearnedModel.h"
-#include "xpersif/core/experiment_samples.h"
+#include "xpersif/core/evaluation/experiment_samples.h"
 #include "xpersif/traces/bag_tools.h"
 #include "xpersif/ros/experiment_conversions.h"
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/plan_search.h"
+#include "xpersif/core/planning/plan_search.h"
 
 namespace xpersif::core::testing_spaces {
 

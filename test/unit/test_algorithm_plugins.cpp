@@ -8,10 +8,10 @@
 #include <cstdlib>
 #include <set>
 
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/plan_search.h"
-#include "xpersif/core/push_model.h"
-#include "xpersif/core/random_stream.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/planning/plan_search.h"
+#include "xpersif/core/learning/push_model.h"
+#include "xpersif/core/common/random_stream.h"
 #include "xpersif/ros/algorithm_loader.h"
 #include "search_spaces.h"
 

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "xpersif/core/command_line.h"
+#include "xpersif/core/common/command_line.h"
 
 using namespace xpersif::core;
 

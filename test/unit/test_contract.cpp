@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "xpersif/core/contract.h"
+#include "xpersif/core/common/contract.h"
 
 using namespace xpersif::core;
 

@@ -7,7 +7,7 @@
 
 #include "xpersif/decision/execution.h"
 #include "xpersif/decision/goal_design.h"
-#include "xpersif/decision/planner.h"
+#include "xpersif/decision/planner_component.h"
 #include "xpersif/embodiment/manipulation.h"
 #include "xpersif/embodiment/relocation.h"
 #include "xpersif/perception/latest_features.h"

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <random>
 
-#include "xpersif/core/evaluation.h"
+#include "xpersif/core/evaluation/evaluation.h"
 
 using namespace xpersif::core;
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <limits>
 
-#include "xpersif/core/experiment.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/experiment.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

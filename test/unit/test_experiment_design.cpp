@@ -1,9 +1,9 @@
 #include <gtest/gtest.h>
 
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/learning_progress.h"
-#include "xpersif/core/random_stream.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/common/random_stream.h"
+#include "xpersif/core/common/validation.h"
 
 #include <cmath>
 #include <map>

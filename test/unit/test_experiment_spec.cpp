@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "xpersif/core/experiment_spec.h"
+#include "xpersif/core/experiment_spec/experiment_spec.h"
 
 namespace fs = std::filesystem;
 using xpersif::core::ExperimentFileError;

@@ -7,8 +7,8 @@
 #include <limits>
 #include <random>
 
-#include "xpersif/core/feature_ranking.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/learning/feature_ranking.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <vector>
 
-#include "xpersif/core/goal_choice.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/learning/goal_choice.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

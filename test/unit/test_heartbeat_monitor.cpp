@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "xpersif/core/heartbeat_monitor.h"
+#include "xpersif/core/common/heartbeat_monitor.h"
 
 using xpersif::core::HeartbeatMonitor;
 

@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "xpersif/core/invocation.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/invocation.h"
+#include "xpersif/core/common/validation.h"
 
 using xpersif::core::Invocation;
 using xpersif::core::ValidationError;

@@ -13,8 +13,8 @@
 #include <set>
 #include <thread>
 
-#include "xpersif/core/knowledge_base.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/kb/knowledge_base.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

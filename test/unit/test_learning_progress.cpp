@@ -11,9 +11,9 @@
 #include <random>
 #include <vector>
 
-#include "xpersif/core/learning_progress.h"
-#include "xpersif/core/random_stream.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/common/random_stream.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

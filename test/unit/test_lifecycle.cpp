@@ -3,7 +3,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "xpersif/core/lifecycle.h"
+#include "xpersif/core/common/lifecycle.h"
 
 using xpersif::core::Lifecycle;
 using xpersif::core::LifecycleState;

@@ -2,8 +2,8 @@
 // go on, and what happens to a participant that does not answer.
 #include <gtest/gtest.h>
 
-#include "xpersif/core/lockstep.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/lockstep.h"
+#include "xpersif/core/common/validation.h"
 
 using xpersif::core::LockstepTiming;
 using xpersif::core::LockstepCoordinator;

@@ -9,9 +9,9 @@
 #include <map>
 #include <random>
 
-#include "xpersif/core/motion.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/motion/motion.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <set>
 
-#include "xpersif/core/motivation.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/learning/motivation.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "xpersif/core/parameters.h"
+#include "xpersif/core/common/parameters.h"
 
 using namespace xpersif::core;
 

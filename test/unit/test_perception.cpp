@@ -9,12 +9,12 @@
 #include <sstream>
 #include <string>
 
-#include "xpersif/core/perception.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/renderer.h"
-#include "xpersif/core/validation.h"
-#include "xpersif/core/vision.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/perception/feature_extractor.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/render/renderer.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/core/perception/vision.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
 

@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "shipped_worlds.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

@@ -3,8 +3,8 @@
 
 #include <memory>
 
-#include "xpersif/core/plan_search.h"
-#include "xpersif/core/planner.h"
+#include "xpersif/core/planning/plan_search.h"
+#include "xpersif/core/planning/planner.h"
 #include "search_spaces.h"
 
 using namespace xpersif::core;

@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
-#include "xpersif/core/planner.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/planning/planner.h"
+#include "xpersif/core/common/validation.h"
 
 #include <algorithm>
 

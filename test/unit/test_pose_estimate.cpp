@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "xpersif/core/pose_estimate.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/pose_estimate.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "xpersif/core/push_learner.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/learning/push_learner.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

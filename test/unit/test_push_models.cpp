@@ -7,10 +7,10 @@
 #include <memory>
 #include <random>
 
-#include "xpersif/core/gaussian_process_push_model.h"
-#include "xpersif/core/per_object_push_model.h"
-#include "xpersif/core/push_learner.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/learning/gaussian_process_push_model.h"
+#include "xpersif/core/learning/per_object_push_model.h"
+#include "xpersif/core/learning/push_learner.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

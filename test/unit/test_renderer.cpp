@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "xpersif/core/renderer.h"
+#include "xpersif/core/render/renderer.h"
 
 using xpersif::core::cameraWorldPose;
 using xpersif::core::CameraModel;

@@ -6,10 +6,10 @@
 #include <string>
 
 #include "shipped_worlds.h"
-#include "xpersif/core/physics_world.h"
-#include "xpersif/core/setup.h"
-#include "xpersif/core/validation.h"
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/setup.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
 

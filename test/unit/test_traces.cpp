@@ -14,8 +14,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "xpersif/core/experiment_samples.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/evaluation/experiment_samples.h"
+#include "xpersif/core/common/validation.h"
 #include "xpersif/traces/bag_tools.h"
 #include "xpersif/traces/offline_learning.h"
 #include "xpersif/ros/experiment_conversions.h"

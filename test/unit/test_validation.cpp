@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 using namespace xpersif::core;
 

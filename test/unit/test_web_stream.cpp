@@ -7,8 +7,8 @@
 #include <cmath>
 #include <limits>
 
-#include "xpersif/core/validation.h"
-#include "xpersif/core/web_stream.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/core/web/web_stream.h"
 
 using namespace xpersif::core;
 

@@ -8,7 +8,7 @@
 #include <map>
 #include <sstream>
 
-#include "xpersif/core/world_spec.h"
+#include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
 

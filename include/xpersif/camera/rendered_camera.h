@@ -20,7 +20,7 @@
 #include <mutex>
 #include <string>
 
-#include "xpersif/core/renderer.h"
+#include "xpersif/core/render/renderer.h"
 #include "xpersif/ros/scene_tracker.h"
 
 namespace xpersif {

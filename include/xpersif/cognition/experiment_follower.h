@@ -17,7 +17,7 @@
  */
 #pragma once
 
-#include "xpersif/core/parameters.h"
+#include "xpersif/core/common/parameters.h"
 
 #include <ros/ros.h>
 #include <std_msgs/UInt64.h>

@@ -43,7 +43,7 @@
 #include "xpersif/UseFeatures.h"
 #include "xpersif/cognition/experiment_follower.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/push_model.h"
+#include "xpersif/core/learning/push_model.h"
 #include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {

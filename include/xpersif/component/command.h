@@ -26,8 +26,8 @@
 
 #include "xpersif/ResultCode.h"
 #include "xpersif/component/events.h"
-#include "xpersif/core/contract.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/contract.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

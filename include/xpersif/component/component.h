@@ -47,11 +47,11 @@
 #include "xpersif/Transition.h"
 #include "xpersif/component/command.h"
 #include "xpersif/component/events.h"
-#include "xpersif/core/contract.h"
-#include "xpersif/core/invocation.h"
-#include "xpersif/core/lifecycle.h"
-#include "xpersif/core/parameters.h"
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/contract.h"
+#include "xpersif/core/common/invocation.h"
+#include "xpersif/core/common/lifecycle.h"
+#include "xpersif/core/common/parameters.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -18,7 +18,7 @@
  */
 #pragma once
 
-#include "xpersif/core/parameters.h"
+#include "xpersif/core/common/parameters.h"
 
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "xpersif/LockstepTick.h"
-#include "xpersif/core/lockstep.h"
+#include "xpersif/core/common/lockstep.h"
 
 namespace xpersif {
 

@@ -12,7 +12,7 @@
 
 #include <string>
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

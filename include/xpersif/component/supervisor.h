@@ -38,7 +38,7 @@
 #include <vector>
 
 #include "xpersif/component/component.h"
-#include "xpersif/core/heartbeat_monitor.h"
+#include "xpersif/core/common/heartbeat_monitor.h"
 
 namespace xpersif {
 

@@ -12,8 +12,8 @@
 #include "xpersif/Experiment.h"
 #include "xpersif/FeatureVector.h"
 #include "xpersif/ObjectFeatures.h"
-#include "xpersif/core/contract.h"
-#include "xpersif/core/experiment.h"
+#include "xpersif/core/common/contract.h"
+#include "xpersif/core/common/experiment.h"
 #include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {

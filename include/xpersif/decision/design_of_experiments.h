@@ -39,10 +39,10 @@
 #include "xpersif/FeatureVector.h"
 #include "xpersif/Motivation.h"
 #include "xpersif/cognition/experiment_follower.h"
-#include "xpersif/core/motion_control.h"
+#include "xpersif/core/motion/motion_control.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/motivation.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/learning/motivation.h"
 #include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {

@@ -43,7 +43,7 @@
 #include "xpersif/ExecutePlanAction.h"
 #include "xpersif/InvokeAction.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/planner.h"
+#include "xpersif/core/planning/planner.h"
 
 namespace xpersif {
 

@@ -43,10 +43,10 @@
 #include "xpersif/LearnedModel.h"
 #include "xpersif/Notions.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/footprint.h"
-#include "xpersif/core/goal_choice.h"
-#include "xpersif/core/motion.h"
-#include "xpersif/core/push_model.h"
+#include "xpersif/core/common/footprint.h"
+#include "xpersif/core/learning/goal_choice.h"
+#include "xpersif/core/motion/motion.h"
+#include "xpersif/core/learning/push_model.h"
 #include "xpersif/ros/algorithm_loader.h"
 
 namespace xpersif {

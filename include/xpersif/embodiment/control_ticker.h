@@ -13,7 +13,7 @@
 #include <string>
 
 #include "xpersif/component/lockstep_client.h"
-#include "xpersif/core/motion.h"
+#include "xpersif/core/motion/motion.h"
 #include "xpersif/embodiment/robot_pose_source.h"
 
 namespace xpersif {

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/motion.h"
-#include "xpersif/core/setup.h"
+#include "xpersif/core/motion/motion.h"
+#include "xpersif/core/common/setup.h"
 
 namespace xpersif {
 

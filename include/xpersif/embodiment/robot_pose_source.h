@@ -19,8 +19,8 @@
 #include <geometry_msgs/Pose2D.h>
 
 #include "xpersif/FeatureVector.h"
-#include "xpersif/core/motion.h"
-#include "xpersif/core/pose_estimate.h"
+#include "xpersif/core/motion/motion.h"
+#include "xpersif/core/common/pose_estimate.h"
 
 namespace xpersif {
 

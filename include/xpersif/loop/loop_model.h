@@ -57,8 +57,8 @@
 #include "xpersif/SetExperiment.h"
 #include "xpersif/component/lockstep_client.h"
 #include "xpersif/component/supervisor.h"
-#include "xpersif/core/experiment_design.h"
-#include "xpersif/core/setup.h"
+#include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/common/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
 #include "xpersif/ros/algorithm_loader.h"
 

@@ -9,7 +9,7 @@
  */
 #pragma once
 
-#include "xpersif/core/parameters.h"
+#include "xpersif/core/common/parameters.h"
 
 #include <sensor_msgs/Image.h>
 
@@ -20,7 +20,7 @@
 
 #include "xpersif/FeatureVector.h"
 #include "xpersif/component/aggregate.h"
-#include "xpersif/core/perception.h"
+#include "xpersif/core/perception/feature_extractor.h"
 
 namespace xpersif {
 

@@ -34,8 +34,8 @@
 #include "xpersif/FeatureNames.h"
 #include "xpersif/SelectFeatures.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/feature_ranking.h"
-#include "xpersif/core/vision.h"
+#include "xpersif/core/learning/feature_ranking.h"
+#include "xpersif/core/perception/vision.h"
 
 namespace xpersif {
 

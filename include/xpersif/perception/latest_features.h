@@ -12,7 +12,7 @@
 #include "xpersif/FeatureVector.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/contract.h"
+#include "xpersif/core/common/contract.h"
 
 namespace xpersif {
 

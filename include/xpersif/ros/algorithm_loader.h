@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/validation.h"
+#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 

@@ -10,7 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "xpersif/Scene.h"
-#include "xpersif/core/scene.h"
+#include "xpersif/core/common/scene.h"
 
 namespace xpersif {
 

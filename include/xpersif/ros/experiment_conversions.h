@@ -20,8 +20,8 @@
 #include "xpersif/FeatureVector.h"
 #include "xpersif/Notion.h"
 #include "xpersif/ObjectFeatures.h"
-#include "xpersif/core/experiment.h"
-#include "xpersif/core/knowledge_base.h"
+#include "xpersif/core/common/experiment.h"
+#include "xpersif/core/kb/knowledge_base.h"
 
 namespace xpersif {
 

@@ -19,7 +19,7 @@
 #include <string>
 
 #include "xpersif/Scene.h"
-#include "xpersif/core/scene.h"
+#include "xpersif/core/common/scene.h"
 
 namespace xpersif {
 

@@ -6,11 +6,11 @@
  */
 #pragma once
 
-#include "xpersif/core/parameters.h"
+#include "xpersif/core/common/parameters.h"
 
 #include <ros/ros.h>
 
-#include "xpersif/core/setup.h"
+#include "xpersif/core/common/setup.h"
 
 namespace xpersif {
 

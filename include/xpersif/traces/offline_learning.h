@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "xpersif/core/experiment_samples.h"
+#include "xpersif/core/evaluation/experiment_samples.h"
 #include "xpersif/traces/bag_tools.h"
 
 namespace xpersif::traces {

@@ -35,8 +35,8 @@
 
 #include "xpersif/LockstepDone.h"
 #include "xpersif/component/component.h"
-#include "xpersif/core/lockstep.h"
-#include "xpersif/core/physics_world.h"
+#include "xpersif/core/common/lockstep.h"
+#include "xpersif/core/sim/physics_world.h"
 
 namespace xpersif {
 

@@ -1,0 +1,67 @@
+/**
+ * @file setup.h
+ * @brief The experimenter's catalogue of the set-up, read from XPERSim's scene description: the arena, the
+ *        robot's footprint and the objects (names, shapes, sizes, colours). Masses, frictions and poses are not
+ *        in it: the loop must learn them. Every limit of the experiment space comes from here, derived from
+ *        each object's geometry, the robot's footprint and the arena, so that any world file works. ROS-free.
+ */
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "xpersif/core/common/experiment.h"
+#include "xpersif/core/common/footprint.h"
+#include "xpersif/core/common/scene.h"
+
+namespace xpersif::core {
+
+/// One object of the catalogue.
+struct CatalogueObject {
+  std::string name;
+  Shape shape;  ///< as the scene describes it (a cylinder stands upright)
+  Rgba color;
+  Footprint footprint;
+  double height = 0;  ///< m
+};
+
+struct SetupCatalogue {
+  std::string world_file;  ///< where the catalogue came from, for sentences
+  double arena_size_x = 0, arena_size_y = 0;  ///< inner extents, centred on the world origin
+  double robot_radius = 0;  ///< the robot's footprint as a disc around its root, m
+  std::vector<CatalogueObject> objects;  ///< in world-file order
+
+  /**
+   * @brief From a scene description: its `objects` with their single visual, the robot's footprint from the
+   *        visuals of its root link. @throws ValidationError when the scene names no object, an object that is
+   *        not a node with one visual, or has no robot.
+   */
+  static SetupCatalogue fromScene(const SceneDescription& scene);
+
+  /// Only the objects named in @p names (in that order). @throws ValidationError naming @p field, the unknown
+  /// object and the world file, when a name is not in the catalogue or appears twice, or @p names is empty.
+  SetupCatalogue restrictedTo(const std::vector<std::string>& names, const std::string& field) const;
+
+  std::vector<std::string> names() const;
+  /// The object called @p name, or nullptr.
+  const CatalogueObject* find(const std::string& name) const;
+
+  /// The longest push after contact: a quarter of the arena's smaller extent, so a push stays well inside it.
+  double maxPushDistance() const;
+  /// The shortest push worth making: a tenth of the longest.
+  double minPushDistance() const;
+  /// Gap between the robot's front and an object's face at the approach spot: the robot's radius (room to
+  /// turn in place before closing in), m.
+  double approachStandoff() const;
+  /// Distance from the walls at which every face of every object stays pushable: the largest object's
+  /// circumradius, plus the approach stand-off and the robot's diameter, plus a margin of half the robot's radius.
+  double wallMargin() const;
+  /// Centre-to-centre distance between objects at which the robot fits between them to reach every face.
+  double objectSpacing() const;
+
+  /// "" when @p experiment pushes a catalogue object on a known side, with |offset| <= maxPushOffset and the
+  /// distance in [minPushDistance, maxPushDistance]; else a sentence naming @p field and the bound.
+  std::string checkExperiment(const std::string& field, const Experiment& experiment) const;
+};
+
+}  // namespace xpersif::core

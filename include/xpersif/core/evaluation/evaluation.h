@@ -1,0 +1,71 @@
+/**
+ * @file evaluation.h
+ * @brief How well a run learned: prediction error on a fixed evaluation set against the number of
+ *        experiments learned from, for any design (curiosity-driven, random, ...), computed from the knowledge
+ *        base alone. ROS-free; used by the report tool and the benchmarks.
+ *
+ * The model after k experiments is what MACHINELEARNING had learned then: a PushLearner with the same
+ * configuration, trained on the run's first k successful experiments in their order (training is
+ * deterministic, push_learner.h). Its error on the evaluation set is the RMS over the evaluation experiments
+ * of core::surprise().error (metres, a turn counted at 2 cm), so every design is judged on the same pushes.
+ */
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "xpersif/core/kb/knowledge_base.h"
+#include "xpersif/core/learning/push_learner.h"
+
+namespace xpersif::core {
+
+/// The learner's samples in a run's records, by the one rule of experiment_samples.h.
+std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records);
+
+/// The objects' names in the order the records' scenes list them (as MACHINELEARNING's one-hot code has them).
+std::vector<std::string> sceneIdentities(const std::vector<ExperimentRecord>& records);
+
+/// The learner's samples of the designed experiments of every run in @p database (a study cell's knowledge base):
+/// the successful ones up to the run's "experiments" count, so not the goal-directed pushes that follow them.
+std::vector<PushSample> designedSamples(const std::string& database);
+
+/// A study's held-out evaluation set: its pushes as the learner's samples, and the objects' identities in scene order.
+struct EvaluationSet {
+  std::vector<std::string> identities;
+  std::vector<PushSample> samples;
+};
+
+/// The evaluation set in @p database: every successful experiment of every run. Throws std::runtime_error when it
+/// holds none.
+EvaluationSet loadEvaluationSet(const std::string& database);
+
+/// The configuration MACHINELEARNING uses: hue and size as features plus the objects' identities.
+PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities);
+
+struct LearningCurve {
+  std::string name;
+  std::vector<int> experiments;  ///< k
+  std::vector<double> error;     ///< RMS error on the evaluation set after k experiments, m
+};
+
+/// How the learner is trained: one model over every object (learner_type random_forest, MACHINELEARNING's
+/// default), or one model per object with the shared one for objects seen fewer than three times
+/// (per_object_forest, core::PerObjectPushModel).
+enum class LearnerScope { Shared, PerObject };
+
+/// Error after each k in @p checkpoints (k larger than the samples available are skipped).
+LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
+                            const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
+                            const std::vector<int>& checkpoints, LearnerScope scope = LearnerScope::Shared);
+
+/// The first k at which the curve is at or below @p error, or -1.
+int experimentsToReach(const LearningCurve& curve, double error);
+
+/// A number of a run's parameters (the JSON object LOOPMODEL stores), or `fallback` when the text is not a JSON
+/// object or has no such number (runs stored before the key existed).
+double runParameter(const std::string& parameters_json, const std::string& key, double fallback);
+
+/// "experiments" of a run's parameters, or -1 (the report and the study read it).
+long designedCount(const std::string& parameters_json);
+
+}  // namespace xpersif::core

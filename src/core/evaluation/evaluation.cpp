@@ -1,0 +1,111 @@
+#include "xpersif/core/evaluation/evaluation.h"
+
+#include <algorithm>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "xpersif/core/evaluation/experiment_samples.h"
+#include "xpersif/core/learning/motivation.h"
+#include "xpersif/core/learning/per_object_push_model.h"
+
+namespace xpersif::core {
+
+std::vector<PushSample> pushSamples(const std::vector<ExperimentRecord>& records) {
+  std::vector<PushSample> samples;
+  for (const auto& r : records) {
+    if (auto sample = pushSampleOf(r)) samples.push_back(*sample);
+  }
+  return samples;
+}
+
+PushLearnerConfig loopLearnerConfig(const std::vector<std::string>& identities) {
+  PushLearnerConfig config;
+  config.feature_names = {"hue", "size"};
+  config.one_hot_identity = true;
+  config.identities = identities;
+  return config;
+}
+
+std::vector<std::string> sceneIdentities(const std::vector<ExperimentRecord>& records) {
+  std::vector<std::string> identities;
+  for (const auto& r : records) {
+    for (const auto& o : r.before.objects) {
+      if (std::find(identities.begin(), identities.end(), o.name) == identities.end()) identities.push_back(o.name);
+    }
+  }
+  return identities;
+}
+
+std::vector<PushSample> designedSamples(const std::string& database) {
+  auto kb = KnowledgeBase::open(database);
+  std::vector<PushSample> samples;
+  for (const auto& run : kb->runs()) {
+    const long designed = designedCount(run.parameters_json);
+    std::vector<ExperimentRecord> records;
+    for (const auto& r : kb->experiments(run.id, "done")) {
+      if (designed < 0 || r.seq <= designed) records.push_back(r);
+    }
+    const auto some = pushSamples(records);
+    samples.insert(samples.end(), some.begin(), some.end());
+  }
+  return samples;
+}
+
+EvaluationSet loadEvaluationSet(const std::string& database) {
+  auto kb = KnowledgeBase::open(database);
+  std::vector<ExperimentRecord> records;
+  for (const auto& run : kb->runs()) {
+    for (const auto& r : kb->experiments(run.id, "done")) records.push_back(r);
+  }
+  EvaluationSet set{sceneIdentities(records), pushSamples(records)};
+  if (set.samples.empty()) throw std::runtime_error(database + " has no successful experiment to evaluate on");
+  return set;
+}
+
+LearningCurve learningCurve(const std::string& name, const std::vector<PushSample>& training,
+                            const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
+                            const std::vector<int>& checkpoints, LearnerScope scope) {
+  LearningCurve curve;
+  curve.name = name;
+  for (int k : checkpoints) {
+    if (k < 0 || k > static_cast<int>(training.size())) continue;
+    const std::vector<PushSample> first(training.begin(), training.begin() + k);
+    std::unique_ptr<PushModel> learner;
+    if (scope == LearnerScope::PerObject) learner = std::make_unique<PerObjectPushModel>(config);
+    else learner = std::make_unique<PushLearner>(config);
+    if (!first.empty()) learner->addSamples(first);
+    double sum = 0;
+    for (const auto& s : evaluation) {
+      const double e = surprise(learner->predict(s.input), s.outcome).error;
+      sum += e * e;
+    }
+    curve.experiments.push_back(k);
+    curve.error.push_back(evaluation.empty() ? NAN : std::sqrt(sum / evaluation.size()));
+  }
+  return curve;
+}
+
+int experimentsToReach(const LearningCurve& curve, double error) {
+  for (std::size_t i = 0; i < curve.error.size(); ++i) {
+    if (curve.error[i] <= error) return curve.experiments[i];
+  }
+  return -1;
+}
+
+double runParameter(const std::string& parameters_json, const std::string& key, double fallback) {
+  const auto parameters = nlohmann::json::parse(parameters_json, nullptr, /*allow_exceptions=*/false);
+  if (!parameters.is_object()) return fallback;
+  const auto value = parameters.find(key);
+  return value != parameters.end() && value->is_number() ? value->get<double>() : fallback;
+}
+
+long designedCount(const std::string& parameters_json) {
+  return static_cast<long>(runParameter(parameters_json, "experiments", -1));
+}
+
+}  // namespace xpersif::core

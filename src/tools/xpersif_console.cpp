@@ -1,0 +1,566 @@
+// xpersif: the console client of the paper. It finds every component by its ~status topic and shows or
+// changes its state, and it drives LOOPMODEL: configure and start a run, pause, resume, stop, confirm,
+// hand-chosen experiments (sliding autonomy), progress.
+#include <ros/master.h>
+#include <ros/ros.h>
+
+#include <iomanip>
+#include <iterator>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <actionlib/client/simple_action_client.h>
+#include <std_srvs/Trigger.h>
+
+#include <csignal>
+#include <ctime>
+#include <filesystem>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <fstream>
+
+#include "xpersif/core/perception/feature_extractor.h"
+#include "xpersif/core/common/command_line.h"
+#include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/common/setup.h"
+#include "xpersif/core/common/validation.h"
+#include "xpersif/core/sim/world_spec.h"
+#include "xpersif/ComponentStatus.h"
+#include "xpersif/RunLoopAction.h"
+#include "run_driver.h"
+#include "xpersif/SetExperiment.h"
+#include "xpersif/GetContracts.h"
+#include "xpersif/Transition.h"
+
+namespace {
+
+const char* kUsage = R"(usage: xpersif <command> [arguments]
+
+  status [--timeout S]                 show every component's state, health, heartbeat and parts
+  wait [--timeout S] COMPONENT...      wait until the components (and all their parts) are ACTIVE;
+                                       exit 1 with the reason when they are not within S seconds
+  configure|activate|deactivate|shutdown COMPONENT
+                                       ask a component for a lifecycle transition
+  contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
+  check-world FILE                     check a world file without ROS: what the loop will be told about its
+                                       objects and the limits derived from them; exit 3 with the reason
+  rerun RUN_DIR [--run-dir DIR] [KEY=VALUE...]
+                                       repeat the experiment of a run directory from what it stored
+                                       (RUN_DIR/experiment.yaml, its world and URDF) through
+                                       `roslaunch xpersif experiment.launch`, into DIR (default
+                                       RUN_DIR-rerun-<time>); exit status: the experiment's (0 done)
+
+The loop (LOOPMODEL at --loop, default /xpersif/loop_model):
+  run NAME [--experiments N] [--goals N] [--design curiosity|random|grid] [--seed S] [--resume]
+      [--confirm-each] [--plan FILE]     start a run and follow it to the end (Ctrl-C cancels it);
+                                       FILE: one pre-planned experiment per line: OBJECT SIDE OFFSET DISTANCE
+  pause | resume | stop | confirm      sliding autonomy on the running loop
+  next OBJECT SIDE OFFSET DISTANCE     run this experiment next instead of the designed one
+  progress                             the loop's state and its last experiment
+
+COMPONENT is a node name such as /loop/supervisor. Default timeout: 3 s for status, 60 s for wait.
+)";
+
+using StatusMap = std::map<std::string, xpersif::ComponentStatus>;
+
+std::vector<std::string> statusTopics() {
+  ros::master::V_TopicInfo topics;
+  ros::master::getTopics(topics);
+  std::vector<std::string> out;
+  for (const auto& t : topics) {
+    if (t.datatype == "xpersif/ComponentStatus") out.push_back(t.name);
+  }
+  return out;
+}
+
+// Collect the latest status of every component until all have spoken once or the time is up.
+StatusMap collectStatus(double timeout) {
+  ros::NodeHandle nh;
+  StatusMap latest;
+  std::vector<ros::Subscriber> subscribers;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  std::vector<std::string> topics = statusTopics();
+  for (const auto& topic : topics) {
+    subscribers.push_back(nh.subscribe<xpersif::ComponentStatus>(
+        topic, 10, [&latest](const xpersif::ComponentStatus::ConstPtr& s) { latest[s->component] = *s; }));
+  }
+  while (ros::ok() && ros::WallTime::now() < end && latest.size() < topics.size()) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  return latest;
+}
+
+const char* healthName(std::uint8_t health) {
+  switch (health) {
+    case xpersif::ComponentStatus::HEALTH_OK: return "ok";
+    case xpersif::ComponentStatus::HEALTH_WARN: return "warn";
+    case xpersif::ComponentStatus::HEALTH_ERROR: return "error";
+    case xpersif::ComponentStatus::HEALTH_STALE: return "stale";
+  }
+  return "?";
+}
+
+void printStatus(const StatusMap& statuses) {
+  std::cout << std::left << std::setw(34) << "COMPONENT" << std::setw(14) << "STATE" << std::setw(8) << "HEALTH"
+            << std::setw(10) << "HEARTBEAT" << "TYPE / NOTE\n";
+  for (const auto& [name, s] : statuses) {
+    std::cout << std::setw(34) << name << std::setw(14) << s.state_name << std::setw(8) << healthName(s.health)
+              << std::setw(10) << s.heartbeat << s.type;
+    if (!s.running_commands.empty()) {
+      std::cout << "  running:";
+      for (const auto& c : s.running_commands) std::cout << " " << c;
+    }
+    if (!s.last_error.empty()) std::cout << "  error: " << s.last_error;
+    std::cout << "\n";
+    for (const auto& p : s.parts) {
+      std::cout << "  - " << std::setw(30) << p.name << std::setw(14) << p.state_name << std::setw(8)
+                << healthName(p.health) << std::setw(10) << "" << p.message << "\n";
+    }
+  }
+  if (statuses.empty()) std::cout << "(no component answered)\n";
+}
+
+// "" when the component and all its parts are ACTIVE, else what is not.
+std::string notReady(const StatusMap& statuses, const std::string& name) {
+  auto it = statuses.find(name);
+  if (it == statuses.end()) return name + " has not reported its status";
+  const auto& s = it->second;
+  if (s.state != xpersif::ComponentStatus::ACTIVE) {
+    return name + " is " + s.state_name + (s.last_error.empty() ? "" : " (" + s.last_error + ")");
+  }
+  for (const auto& p : s.parts) {
+    if (p.state != xpersif::ComponentStatus::ACTIVE) {
+      return name + ": part " + p.name + " is " + p.state_name + (p.message.empty() ? "" : " (" + p.message + ")");
+    }
+  }
+  return "";
+}
+
+int waitActive(const std::vector<std::string>& names, double timeout) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  std::string reason = "nothing heard";
+  while (ros::ok()) {
+    const StatusMap statuses = collectStatus(0.5);
+    reason.clear();
+    for (const auto& n : names) {
+      reason = notReady(statuses, n);
+      if (!reason.empty()) break;
+    }
+    if (reason.empty()) {
+      printStatus(statuses);
+      return 0;
+    }
+    if (ros::WallTime::now() > end) break;
+    ros::WallDuration(0.2).sleep();
+  }
+  std::cerr << "xpersif: not ACTIVE within " << timeout << " s: " << reason << "\n";
+  return 1;
+}
+
+int transition(const std::string& verb, const std::string& component) {
+  const std::string service = component + "/" + verb;
+  if (!ros::service::waitForService(service, ros::Duration(5.0))) {
+    std::cerr << "xpersif: " << component << " offers no " << service << " service (is it running?)\n";
+    return 1;
+  }
+  xpersif::Transition call;
+  if (!ros::service::call(service, call)) {
+    std::cerr << "xpersif: the call to " << service << " failed\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  std::cout << component << ": " << call.response.state_name << "\n";
+  return 0;
+}
+
+int contracts(const std::string& component, const std::string& name) {
+  xpersif::GetContracts call;
+  call.request.name = name;
+  if (!ros::service::call(component + "/get_contracts", call)) {
+    std::cerr << "xpersif: " << component << "/get_contracts did not answer\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  for (const auto& c : call.response.contracts) {
+    std::cout << c.kind << " " << c.name << " (" << c.interface_type << "): " << c.description << "\n";
+    if (!c.parameters.empty()) {
+      std::cout << "  parameters:";
+      for (const auto& p : c.parameters) std::cout << " " << p;
+      std::cout << "\n";
+    }
+    for (const auto& p : c.preconditions) std::cout << "  requires " << p.literal << "  -- " << p.description << "\n";
+    for (const auto& e : c.effects) std::cout << "  effect   " << e << "\n";
+  }
+  return 0;
+}
+
+std::string loop_name = "/xpersif/loop_model";
+
+bool parseExperiment(const std::vector<std::string>& words, std::size_t at, xpersif::Experiment* e) {
+  if (words.size() < at + 4) return false;
+  e->object = words[at];
+  e->side = words[at + 1];
+  try {
+    e->offset = xpersif::core::parseRealNumber("OFFSET", words[at + 2], -1e3, 1e3);
+    e->distance = xpersif::core::parseRealNumber("DISTANCE", words[at + 3], -1e3, 1e3);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
+}
+
+int trigger(const std::string& operation) {
+  std_srvs::Trigger call;
+  const std::string service = loop_name + "/" + operation;
+  if (!ros::service::waitForService(service, ros::Duration(5.0)) || !ros::service::call(service, call)) {
+    std::cerr << "xpersif: " << service << " did not answer (is the loop running?)\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  std::cout << operation << ": " << call.response.message << "\n";
+  return 0;
+}
+
+int next(const std::vector<std::string>& rest) {
+  xpersif::SetExperiment call;
+  if (!parseExperiment(rest, 0, &call.request.experiment)) {
+    std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05\n";
+    return 2;
+  }
+  const std::string service = loop_name + "/set_next_experiment";
+  if (!ros::service::call(service, call)) {
+    std::cerr << "xpersif: " << service << " did not answer\n";
+    return 1;
+  }
+  if (!call.response.success) {
+    std::cerr << "xpersif: " << call.response.message << "\n";
+    return 1;
+  }
+  std::cout << "next: " << call.response.message << "\n";
+  return 0;
+}
+
+void printProgress(const xpersif::RunLoopFeedback& p) {
+  std::cout << "[" << p.state << "] experiment " << p.experiment << ", surprise " << std::fixed << std::setprecision(4)
+            << p.surprise << " m: " << p.last << std::endl;
+}
+
+int progress() {
+  ros::NodeHandle nh;
+  bool got = false;
+  auto sub = nh.subscribe<xpersif::RunLoopFeedback>(loop_name + "/progress", 1,
+                                                    [&](const xpersif::RunLoopFeedback::ConstPtr& p) {
+                                                      printProgress(*p);
+                                                      got = true;
+                                                    });
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(3.0);
+  while (!got && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  if (!got) std::cerr << "xpersif: no progress from " << loop_name << "\n";
+  return got ? 0 : 1;
+}
+
+volatile std::sig_atomic_t interrupted = 0;
+
+/// The run command's goal from its arguments, before anything talks to ROS: kExitOk, or the exit code after the
+/// sentence has been printed.
+int parseRunGoal(const std::vector<std::string>& rest, xpersif::RunLoopGoal& goal) {
+  using xpersif::core::parseWholeNumber;
+  goal.experiments = 20;
+  goal.goals = 5;
+  goal.design = "curiosity";
+  goal.seed = 1;
+  std::vector<std::string> words;
+  try {
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      const std::string& a = rest[i];
+      auto value = [&]() -> const std::string& {
+        if (i + 1 >= rest.size()) throw xpersif::core::UsageError(a + " needs a value");
+        return rest[++i];
+      };
+      if (a == "--experiments") {
+        goal.experiments = static_cast<std::uint32_t>(parseWholeNumber("--experiments", value(), 0, UINT32_MAX));
+      } else if (a == "--goals") {
+        goal.goals = static_cast<std::uint32_t>(parseWholeNumber("--goals", value(), 0, UINT32_MAX));
+      } else if (a == "--design") {
+        goal.design = value();
+      } else if (a == "--seed") {
+        goal.seed = parseWholeNumber("--seed", value());
+      } else if (a == "--resume") {
+        goal.resume = true;
+      } else if (a == "--confirm-each") {
+        goal.confirm_each = true;
+      } else if (a == "--plan") {
+        const std::string& file = value();
+        std::ifstream in(file);
+        if (!in) {
+          std::cerr << "xpersif: cannot read the plan file " << file << "\n";
+          return xpersif::core::kExitUsage;
+        }
+        std::string line;
+        for (int number = 1; std::getline(in, line); ++number) {
+          std::istringstream fields(line);
+          std::vector<std::string> parts{std::istream_iterator<std::string>(fields), {}};
+          if (parts.empty() || parts[0][0] == '#') continue;
+          xpersif::Experiment e;
+          if (!parseExperiment(parts, 0, &e)) {
+            std::cerr << "xpersif: " << file << ":" << number
+                      << ": expected OBJECT SIDE OFFSET DISTANCE (offset and distance finite numbers)\n";
+            return xpersif::core::kExitUsage;
+          }
+          goal.plan.push_back(e);
+        }
+      } else if (!a.empty() && a[0] == '-') {
+        throw xpersif::core::UsageError("run: unknown option " + a);
+      } else {
+        words.push_back(a);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: " << e.what() << "\n";
+    return xpersif::core::kExitUsage;
+  }
+  if (words.size() != 1) {
+    std::cerr << "xpersif: run needs exactly one NAME\n" << kUsage;
+    return xpersif::core::kExitUsage;
+  }
+  goal.name = words[0];
+  return xpersif::core::kExitOk;
+}
+
+int runLoop(xpersif::RunLoopGoal goal) {
+  actionlib::SimpleActionClient<xpersif::RunLoopAction> client(loop_name + "/run", true);
+  if (!client.waitForServer(ros::Duration(30.0))) {
+    std::cerr << "xpersif: " << loop_name << "/run is not offered (is the loop running?)\n";
+    return 1;
+  }
+  std::signal(SIGINT, [](int) { interrupted = 1; });
+  // A run whose LOOPMODEL died and came back goes on (resumed); one whose master or LOOPMODEL stays gone ends
+  // with a sentence instead of waiting for ever.
+  bool said_cancel = false;
+  xpersif::RunDriver driver(client, loop_name + "/run", [](const std::string& s) { std::cout << "xpersif: " << s << std::endl; });
+  const xpersif::RunDriver::Outcome outcome = driver.run(
+      goal, [](const xpersif::RunLoopFeedbackConstPtr& p) { printProgress(*p); },
+      [&] {
+        if (interrupted && !said_cancel) {
+          std::cout << "xpersif: cancelling the run (it can be resumed with --resume)" << std::endl;
+          said_cancel = true;
+        }
+        return interrupted != 0;
+      },
+      {});
+  if (!outcome.ended) {
+    std::cerr << "xpersif: " << outcome.problem << "\n";
+    return 1;
+  }
+  const auto& state = outcome.state;
+  const auto& result = outcome.result;
+  std::cout << "run " << (result ? result->run_id : 0) << ": " << state.toString() << ": " << state.getText() << "\n";
+  return state == actionlib::SimpleClientGoalState::SUCCEEDED ? 0 : 1;
+}
+
+}  // namespace
+
+/// The world file as the loop will see it, ROS-free: what XPERSim builds from it, the catalogue the components
+/// read, and whether the cameras can tell every object apart.
+int checkWorld(const std::string& file) {
+  try {
+    const xpersif::core::WorldSpec spec = xpersif::core::loadWorldFile(file);
+    const xpersif::core::PhysicsWorld world(spec);
+    const xpersif::core::SetupCatalogue catalogue = xpersif::core::SetupCatalogue::fromScene(world.scene());
+    const xpersif::core::PerceptionCatalogue seen = xpersif::core::PerceptionCatalogue::fromScene(world.scene());
+    const std::string alike = xpersif::core::checkDistinguishable(seen);
+    if (!alike.empty()) throw xpersif::core::ValidationError(file + ": " + alike);
+    std::cout << file << ": " << spec.name << ", arena " << catalogue.arena_size_x << " x " << catalogue.arena_size_y
+              << " m, robot '" << spec.robot.name << "' of radius " << catalogue.robot_radius << " m\n";
+    for (const auto& o : catalogue.objects) {
+      std::cout << "  " << o.name << ": " << o.footprint.describe() << ", " << o.height << " m high, offsets up to "
+                << xpersif::core::maxPushOffset(o.footprint, "-x") << " (-x/+x) and "
+                << xpersif::core::maxPushOffset(o.footprint, "-y") << " (-y/+y) m\n";
+    }
+    std::cout << "  pushes of " << catalogue.minPushDistance() << " to " << catalogue.maxPushDistance()
+              << " m; tidying keeps objects " << catalogue.wallMargin() << " m from the walls and "
+              << catalogue.objectSpacing() << " m apart\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: " << e.what() << "\n";
+    return xpersif::core::kExitBadInput;
+  }
+}
+
+/// `xpersif rerun`: experiment.launch pointed at the stored experiment, on the master of ROS_MASTER_URI (started
+/// by roslaunch when none runs there). The outcome is the runner's status file, since roslaunch exits 0 anyway.
+int rerun(const std::vector<std::string>& rest) {
+  std::string old_dir, new_dir;
+  std::vector<std::string> overrides;
+  for (std::size_t i = 0; i < rest.size(); ++i) {
+    if (rest[i] == "--run-dir" && i + 1 < rest.size()) {
+      new_dir = rest[++i];
+    } else if (old_dir.empty()) {
+      old_dir = rest[i];
+    } else {
+      overrides.push_back(rest[i]);
+    }
+  }
+  if (old_dir.empty()) {
+    std::cerr << "xpersif: rerun needs a run directory\n";
+    return 2;
+  }
+  // Absolute: the runner works in another directory.
+  old_dir = std::filesystem::absolute(old_dir).lexically_normal().string();
+  while (old_dir.size() > 1 && old_dir.back() == '/') old_dir.pop_back();
+  if (!new_dir.empty()) new_dir = std::filesystem::absolute(new_dir).lexically_normal().string();
+  const std::string experiment = old_dir + "/experiment.yaml";
+  if (!std::ifstream(experiment)) {
+    std::cerr << "xpersif: " << old_dir << " holds no experiment.yaml (was it run from an experiment file?)\n";
+    return 2;
+  }
+  if (new_dir.empty()) {
+    char stamp[32];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::localtime(&now));
+    new_dir = old_dir + "-rerun-" + stamp;
+  }
+  std::string joined;
+  for (const auto& o : overrides) joined += (joined.empty() ? "" : " ") + o;
+  const char* master = std::getenv("ROS_MASTER_URI");
+  const std::string uri = master ? master : "";
+  const std::string port = uri.substr(uri.rfind(':') + 1);
+  std::vector<std::string> args = {"roslaunch"};
+  if (!port.empty() && uri.rfind(':') != std::string::npos) args.insert(args.end(), {"-p", port});
+  args.insert(args.end(), {"xpersif", "experiment.launch", "experiment:=" + experiment, "run_dir:=" + new_dir,
+                           "overrides:=" + joined});
+  std::cout << "xpersif: repeating " << experiment << " into " << new_dir << std::endl;
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ::execvp(argv[0], argv.data());
+    std::perror("xpersif: roslaunch");
+    ::_exit(127);
+  }
+  if (pid < 0) return 1;
+  std::signal(SIGINT, SIG_IGN);  // Ctrl-C reaches roslaunch, which stops the experiment; we wait for it
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return 2;  // the check refused the file: nothing started
+  std::ifstream outcome(new_dir + "/status");
+  int code = 1;
+  std::string sentence;
+  if (!(outcome >> code)) {
+    std::cerr << "xpersif: the rerun ended without an outcome in " << new_dir << "/status\n";
+    return 1;
+  }
+  std::getline(outcome, sentence);
+  std::cout << "xpersif: rerun:" << sentence << "\n";
+  return code;
+}
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "-h" || args[0] == "--help") {
+    std::cout << kUsage;
+    return args.empty() ? 2 : 0;
+  }
+  const std::string command = args[0];
+  double timeout = -1;
+  std::vector<std::string> rest;
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    if (args[i] == "--timeout" && i + 1 < args.size()) {
+      try {
+        timeout = xpersif::core::parseRealNumber("--timeout", args[++i], 1e-3, 1e6);
+      } catch (const std::exception& e) {
+        std::cerr << "xpersif: " << e.what() << " seconds\n";
+        return xpersif::core::kExitUsage;
+      }
+    } else if (args[i] == "--loop" && i + 1 < args.size()) {
+      loop_name = args[++i];
+    } else {
+      rest.push_back(args[i]);
+    }
+  }
+  if (command == "check-world") {
+    if (rest.size() != 1) {
+      std::cerr << "xpersif: check-world needs one world file\n";
+      return 2;
+    }
+    return checkWorld(rest[0]);
+  }
+  if (command == "rerun") return rerun(rest);
+  // Arguments are checked before anything talks to ROS: a typo is a usage error whether or not a system runs.
+  xpersif::RunLoopGoal run_goal;
+  if (command == "run") {
+    if (const int code = parseRunGoal(rest, run_goal); code != xpersif::core::kExitOk) return code;
+  }
+  const bool known = command == "status" || (command == "wait" && !rest.empty()) || command == "run" || command == "next" ||
+                     command == "progress" ||
+                     ((command == "configure" || command == "activate" || command == "deactivate" ||
+                       command == "shutdown") && rest.size() == 1) ||
+                     (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) ||
+                     ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") &&
+                      rest.empty());
+  if (!known) {
+    std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
+    return xpersif::core::kExitUsage;
+  }
+  if (command == "next") {
+    xpersif::Experiment e;
+    if (rest.size() != 4 || !parseExperiment(rest, 0, &e)) {
+      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers)\n";
+      return xpersif::core::kExitUsage;
+    }
+  }
+  ros::init(argc, argv, "xpersif_console", ros::init_options::AnonymousName | ros::init_options::NoSigintHandler);
+  if (command == "wait") {
+    // The system may still be starting: give the master the same time as the components.
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout > 0 ? timeout : 60.0);
+    while (!ros::master::check() && ros::WallTime::now() < end) ros::WallDuration(0.2).sleep();
+  }
+  if (!ros::master::check()) {
+    std::cerr << "xpersif: no ROS master at " << ros::master::getURI() << " (start the system first)\n";
+    return xpersif::core::kExitFailed;
+  }
+  // Keep the node up for the whole command: the helpers' short-lived NodeHandles would otherwise
+  // shut it down when the first of them goes away.
+  ros::start();
+  if (command == "status") {
+    printStatus(collectStatus(timeout > 0 ? timeout : 3.0));
+    return 0;
+  }
+  if (command == "wait" && !rest.empty()) return waitActive(rest, timeout > 0 ? timeout : 60.0);
+  if ((command == "configure" || command == "activate" || command == "deactivate" || command == "shutdown") &&
+      rest.size() == 1) {
+    return transition(command, rest[0]);
+  }
+  if (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) {
+    return contracts(rest[0], rest.size() == 2 ? rest[1] : "");
+  }
+  if (command == "run") {
+    ros::AsyncSpinner spinner(1);
+    spinner.start();
+    return runLoop(run_goal);
+  }
+  if ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") && rest.empty()) {
+    return trigger(command);
+  }
+  if (command == "next") return next(rest);
+  if (command == "progress") return progress();
+  std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
+  return 2;
+}
