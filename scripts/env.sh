@@ -1,7 +1,7 @@
 # Source me: the environment to run XPERSIF from this checkout (devel space) or from an installed package,
 # loopback networking by default.
 # A master port is chosen at random unless ROS_MASTER_URI is already set (XPERSIF_NEW_MASTER=1: always).
-# Addresses (README, "Security" and "Several hosts"): loopback only unless ROS_IP (or ROS_HOSTNAME) is already
+# Addresses (doc/security.md and "Several hosts"): loopback only unless ROS_IP (or ROS_HOSTNAME) is already
 # set; then the master and the nodes use that address. Every listener started from this shell binds to that
 # address only (XPERSIF_BIND_ADDRESS, default: ROS_IP or ROS_HOSTNAME's address; `any` for every address),
 # through the preloaded libxpersif_bind_address.so.

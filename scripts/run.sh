@@ -7,15 +7,15 @@
 # roslaunch exits 0 however its required node ended; the runner writes the outcome to a status file).
 #
 #   bash scripts/run.sh [FILE] [--set KEY=VALUE]... [--run-dir DIR]
-#     FILE             an experiment file (default experiments/default.yaml; README, "Experiment files")
+#     FILE             an experiment file (default experiments/default.yaml; doc/experiments.md)
 #     --set KEY=VALUE  override a key of the file: --set seed=3, --set phases.1.experiments=8,
 #                      --set recording.mode=bags, --set world=worlds/mixed.yaml (relative to FILE's directory)
 #     --run-dir DIR    instead of the file's run_dir (also: XPERSIF_RUN_DIR)
 #     --hosts 'ARGS'   where the parts run: xpersif.launch's host arguments as NAME=VALUE, e.g. 'sim_host=10.0.0.5
-#                      view_host=10.0.0.7' (README, "Several hosts"; set ROS_IP to this host's address first)
+#                      view_host=10.0.0.7' (doc/hosts.md; set ROS_IP to this host's address first)
 # Everything goes to the run directory (runs/<time>/ by default): report.md, learning_curve.png/.csv,
 # knowledge.db, the experiment as run and its provenance, launch.log, ros_log/.
-# Exit status (README "Exit codes"): 0 done, 1 a phase or the report failed, 2 usage or a bad experiment file
+# Exit status (doc/exit-codes.md): 0 done, 1 a phase or the report failed, 2 usage or a bad experiment file
 # (nothing started), 4 the run directory cannot be written.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

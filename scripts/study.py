@@ -34,7 +34,7 @@ import time
 import yaml
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-# Object keys a world file may give an object whose behaviour is fixed (README, "Writing a world"). An object with
+# Object keys a world file may give an object whose behaviour is fixed (doc/worlds.md). An object with
 # any other key (e.g. a property the simulator redraws before each push) is taken as unlearnable.
 STATIC_OBJECT_KEYS = {"name", "shape", "size", "radius", "length", "mass", "friction", "color", "pose"}
 

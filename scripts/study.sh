@@ -2,7 +2,7 @@
 # A study: N seeds x designs x budget on the lockstep loop, headless, as many cells at once as there are cores,
 # with a progress bar and the time left; resumable (run the same command again); a report with learning curves
 # and 95 % bands, experiments needed to reach random design's final error, paired tests, the share of
-# experiments per object over time, and the notions. README, "Studies"; the options: scripts/study.py --help.
+# experiments per object over time, and the notions. doc/studies.md; the options: scripts/study.py --help.
 #
 #   bash scripts/study.sh --seeds 3 --designs random,learning_progress,error_max --budget 40 --out studies/small
 #

@@ -93,7 +93,7 @@ managers = ["sim_manager", "embodiment_manager", "kb_manager", "loop_manager", "
 moments = sorted(rng.sample(range(7), kills))
 for k in moments:
     # Not LOOPMODEL's manager in the goal phase: a resumed run starts the unfinished goal again from its start,
-    # and the pushes of it already stored stay (a known gap, README "The cognitive loop").
+    # and the pushes of it already stored stay (a known gap, doc/loop.md).
     choices = managers if k < 6 else [m for m in managers if m != "loop_manager"]
     print(k, "%.2f" % rng.uniform(0.0, 1.5), "kill:" + rng.choice(choices))
 PLAN

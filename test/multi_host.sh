@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# XPERSIF across three hosts, built on this machine from network namespaces (README "Several hosts"):
+# XPERSIF across three hosts, built on this machine from network namespaces (doc/hosts.md):
 #   sim   10.213.7.1  XPERSim and the embodiment (sim_manager, embodiment_manager), reached over ssh
 #   loop  10.213.7.2  the master, roslaunch, the knowledge base and the loop (kb_manager, loop_manager, LOOPMODEL)
 #   view  10.213.7.3  a viewer (view.launch: progress_markers and telesim_view, headless), reached over ssh

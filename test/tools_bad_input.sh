@@ -4,7 +4,7 @@
 # unknown option, a missing value, a missing file, a file of random bytes, a truncated file, a directory where a
 # file belongs, a file or directory without permission (run as the user nobody: root may read and write
 # anything), a world whose arena size is a word, a URDF with a negative inertia. Each case must end with the
-# documented exit code (README "Exit codes": 1 failed, 2 usage, 3 bad input file, 4 output not writable), a
+# documented exit code (doc/exit-codes.md: 1 failed, 2 usage, 3 bad input file, 4 output not writable), a
 # sentence on stderr naming what was wrong, and never an abort: no "terminate called", no core dump, no signal.
 # The table of cases and outcomes goes to $OUT (default /tmp/xpersif_tools_bad_input.md).
 #   bash test/tools_bad_input.sh BUILD_DIR

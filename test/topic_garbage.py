@@ -11,13 +11,13 @@ publisher would (the type's md5sum and definition) and then sends, one case per 
              Untamed, random counts made a nodelet manager allocate 12 GB and the kernel kill it. Random bytes at
              least as long as a fixed-size type (rosgraph_msgs/Clock) *are* a message to roscpp, which ignores
              what follows a complete message: a random simulated time. Both are ROS's risks, not cases this test
-             can judge (README, Security).
+             can judge (doc/security.md).
   truncated  a length prefix that promises 64 KiB, 16 bytes, and the connection closed
   oversized  a length prefix of 2^31 bytes (over roscpp's 1 GB limit: it drops the connection)
   forged     a well-formed message of the right length whose first array (or string) declares 2^32-1 elements
              (roscpp resizes a vector before it checks the bytes are there: only element types of 8 bytes or more
              are forged, whose resize the kernel refuses at once on a 24 GiB machine with heuristic overcommit; see
-             the README's Security section for the smaller ones)
+             doc/security.md for the smaller ones)
 
 After each topic's cases it checks that every component still answers get_state, and at the end that XPERSim's
 world (ground truth) and the knowledge base are unchanged. Prints a table; exits 1 when a check failed.

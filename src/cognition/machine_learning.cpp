@@ -185,7 +185,7 @@ const core::ParameterTable& MachineLearning::parameters() {
     core::ParameterTable own(
         "machine_learning",
         {core::textParameter("learner_type", "random_forest",
-                             "the push model plugin: random_forest, per_object_forest, gaussian_process or another package's (README, Plugins)"),
+                             "the push model plugin: random_forest, per_object_forest, gaussian_process or another package's (doc/plugins.md)"),
          core::namesParameter("features", d.feature_names, core::kMaxExtraFeatures,
                               "the object's features the model learns from, besides the push"),
          ParameterSpec{"feature_scales", ParameterSpec::Type::Dictionary, {}, "{hue: 30, size: 0.01}", -INFINITY, INFINITY, {},
@@ -193,7 +193,7 @@ const core::ParameterTable& MachineLearning::parameters() {
          core::flagParameter("one_hot_identity", true, "encode the object's identity as an input"),
          core::intParameter("seed", 1, 0, 2147483647, "the learner's seed"),
          ParameterSpec{"learner_options", ParameterSpec::Type::Dictionary, {}, "{}", -INFINITY, INFINITY, {},
-                       "options of the learner plugin, name to number (README, Plugins)"},
+                       "options of the learner plugin, name to number (doc/plugins.md)"},
          ParameterSpec{"ensemble_size", ParameterSpec::Type::Int, {}, "the plugin's (8)", 1, 256, {},
                        "random_forest: forests in the bootstrap ensemble (also ~learner_options/ensemble_size)"},
          ParameterSpec{"trees_per_member", ParameterSpec::Type::Int, {}, "the plugin's (16)", 1, 1024, {},

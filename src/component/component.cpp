@@ -122,7 +122,7 @@ void Component::warnUndeclaredParameters() {
   }
   for (const auto& unknown : declared->undeclared(set)) {
     ROS_WARN_STREAM(name_ << ": " << unknown << " is set, but " << type_
-                          << " does not read it (README, Parameter reference)");
+                          << " does not read it (doc/parameters.md)");
   }
 }
 

@@ -86,7 +86,7 @@ const core::ParameterTable& Supervisor::parameters() {
       "supervisor",
       {core::ParameterSpec{"components", core::ParameterSpec::Type::Structure, {}, "[]", -INFINITY, INFINITY, {},
                            "the supervised components in start order: a list of {name, type, manager, activate, "
-                           "params} (README, The component model)"},
+                           "params} (doc/components.md)"},
        core::namesParameter("omit", {}, 256, "components of ~components to leave out (a launch file's switch)"),
        core::numberParameter("heartbeat_timeout", 1.0, 0.05, 600.0,
                              "s of wall time without a status before a component counts as lost"),

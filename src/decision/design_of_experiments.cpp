@@ -81,7 +81,7 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
         "design_of_experiments",
         {core::textParameter("design", "curiosity",
                              "the design plugin: curiosity, random, grid, learning_progress, error_max or another "
-                             "package's (README, Plugins)"),
+                             "package's (doc/plugins.md)"),
          core::intParameter("seed", 1, 0, 2147483647, "the campaign's seed; every choice draws from (seed, run, experiment)"),
          core::numberParameter("min_offset", d.min_offset, -1.0, 1.0, "smallest offset, as a fraction of the face's limit"),
          core::numberParameter("max_offset", d.max_offset, -1.0, 1.0, "largest offset, as a fraction of the face's limit"),

@@ -138,7 +138,7 @@ const core::ParameterTable& Planner::parameters() {
   static const core::ParameterTable table(
       "planner",
       {core::textParameter("search_type", "breadth_first",
-                           "the plan search plugin: breadth_first, greedy or another package's (README, Plugins)"),
+                           "the plan search plugin: breadth_first, greedy or another package's (doc/plugins.md)"),
        core::namesParameter("components", {"observation", "vision", "manipulation", "relocation"}, 64,
                             "the components whose contracts are the planning operators"),
        core::namesParameter("prefer", {"vision"}, 64, "components preferred when operators tie"),

@@ -1,5 +1,5 @@
 // libxpersif_bind_address.so: an LD_PRELOAD library that makes a process's wildcard listeners bind to one
-// address, XPERSIF_BIND_ADDRESS, instead of every address of the host (README, "Security").
+// address, XPERSIF_BIND_ADDRESS, instead of every address of the host (doc/security.md).
 //
 // Why a preload library: ROS 1 has no setting for where it listens. xmlrpcpp (the XML-RPC server of every
 // roscpp node and nodelet manager) always binds INADDR_ANY; roscpp's TCPROS server, rospy's servers, the

@@ -1,7 +1,7 @@
 /**
  * @file parameter_catalogue.h
- * @brief Every component type's declared parameters (core/parameters.h), in one list: what the README's
- *        parameter reference is generated from (xpersif_parameters) and what experiment files are checked against
+ * @brief Every component type's declared parameters (core/parameters.h), in one list: what the parameter reference
+ *        (doc/parameters.md) is generated from (xpersif_parameters) and what experiment files are checked against
  *        (xpersif_experiment).
  */
 #pragma once

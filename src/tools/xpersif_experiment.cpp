@@ -88,7 +88,7 @@ void checkWorld(const ExperimentSpec& spec) {
   }
 }
 
-/// Each component's declared parameters (README, Parameter reference), by its name in the component lists.
+/// Each component's declared parameters (doc/parameters.md), by its name in the component lists.
 std::map<std::string, const xpersif::core::ParameterTable*> declaredParameters(const std::vector<std::string>& configs) {
   std::map<std::string, const xpersif::core::ParameterTable*> declared{
       {"loop_model", xpersif::declaredParametersOf("xpersif/LoopModelNodelet")}};
@@ -257,7 +257,7 @@ class Runner {
     } catch (const std::exception& e) {
       return finish(2, e.what());
     }
-    // Where the system's parts run (README "Several hosts"): only xpersif.launch's host arguments, so that
+    // Where the system's parts run (doc/hosts.md): only xpersif.launch's host arguments, so that
     // nothing here can change what the experiment file says.
     static const std::set<std::string> kHostArguments = {
         "sim_host", "loop_host", "view_host", "view_rviz", "view_telesim", "view_telesim_display",

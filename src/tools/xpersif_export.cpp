@@ -1,5 +1,5 @@
 // xpersif_export: XPERSIF traces (bags) -> CSV tables. Schema: doc/traces.md; exit codes as every tool of the
-// package (core/command_line.h, README "Exit codes").
+// package (core/command_line.h, doc/exit-codes.md).
 #include <filesystem>
 #include <iostream>
 #include <regex>

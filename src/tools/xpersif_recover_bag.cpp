@@ -1,5 +1,5 @@
 // xpersif_recover_bag: reindex bags left '.active' (unindexed) by a killed recorder; say what was kept.
-// Exit codes as every tool of the package (core/command_line.h, README "Exit codes").
+// Exit codes as every tool of the package (core/command_line.h, doc/exit-codes.md).
 #include <filesystem>
 #include <iomanip>
 #include <iostream>

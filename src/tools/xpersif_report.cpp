@@ -7,7 +7,7 @@
 // run (the latest run of each name), the experiments each design needed to reach the error random design ends
 // with, the notions learned, and the goal-directed pushes' success.
 //
-// Exit codes as every tool of the package (core/command_line.h, README "Exit codes"): 0 written, 1 the report
+// Exit codes as every tool of the package (core/command_line.h, doc/exit-codes.md): 0 written, 1 the report
 // failed (a run it needs is missing), 2 usage, 3 the knowledge base is missing, unreadable or corrupt, 4 DIR
 // cannot be written.
 #include <opencv2/imgcodecs.hpp>
@@ -92,7 +92,7 @@ std::vector<std::string> tupleItems(const std::string& argument) {
   return items;
 }
 
-/// FEATURESELECTION's choice in a run, from the facts its choose_features call left (README "Calls and facts").
+/// FEATURESELECTION's choice in a run, from the facts its choose_features call left (doc/loop.md).
 std::string featureChoice(KnowledgeBase& kb, std::int64_t run_id) {
   std::string chosen, experiments, scores;
   for (const auto& fact : kb.facts(run_id)) {

@@ -1,5 +1,5 @@
 // xpersif_train_offline: MACHINELEARNING's PushLearner trained from recorded bags (see offline_learning.h).
-// Exit codes as every tool of the package (core/command_line.h, README "Exit codes").
+// Exit codes as every tool of the package (core/command_line.h, doc/exit-codes.md).
 #include <filesystem>
 #include <fstream>
 #include <iostream>

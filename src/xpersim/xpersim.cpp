@@ -323,10 +323,10 @@ const core::ParameterTable& XPerSim::parameters() {
   using core::ParameterSpec;
   static const core::ParameterTable table(
       "xpersim",
-      {core::textParameter("world", "", "path of the world file (README, Writing a world); required"),
+      {core::textParameter("world", "", "path of the world file (doc/worlds.md); required"),
        core::textParameter("clock_mode", "realtime",
                            "how simulated time advances: at ~real_time_factor × wall time, as fast as possible, or "
-                           "one control tick at a time when every participant is done (README, Lockstep)",
+                           "one control tick at a time when every participant is done (doc/lockstep.md)",
                            {"realtime", "fast", "lockstep"}),
        core::numberParameter("real_time_factor", 1.0, 0.01, 100.0, "realtime mode: simulated seconds per wall second"),
        core::numberParameter("tf_rate", 1000.0, 1.0, 10000.0, "Hz of simulated time for /tf and /clock (realtime, fast)"),

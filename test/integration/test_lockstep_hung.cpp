@@ -1,4 +1,4 @@
-// XPERSim's lockstep clock with a participant that hangs (issue 13, README "Lockstep"): a participant that owes a
+// XPERSim's lockstep clock with a participant that hangs (issue 13, doc/lockstep.md): a participant that owes a
 // report and gives none within ~participant_timeout is dropped, named on ~events and in ~status, and simulated
 // time goes on for the others, without it in LockstepTick.participants.
 //

@@ -322,7 +322,7 @@ TEST(Export, ToolExitsNonZeroWithTheFileNamed) {
                           (dir / "err.txt");
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 3) << "a bad input file (README \"Exit codes\")";
+  EXPECT_EQ(WEXITSTATUS(status), 3) << "a bad input file (doc/exit-codes.md)";
   EXPECT_NE(readFile(dir / "err.txt").find(dir / "cut.bag"), std::string::npos) << readFile(dir / "err.txt");
   const std::string ok = std::string(XPERSIF_EXPORT) + " -o " + dir.path() + " " + dir / "xpersif_0.bag" + " >/dev/null";
   EXPECT_EQ(std::system(ok.c_str()), 0);

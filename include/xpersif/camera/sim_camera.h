@@ -5,8 +5,7 @@
  *        simulated time. Images go out as shared pointers, so nodelets in the same manager receive them
  *        without a copy.
  *
- * Parameters: SimCamera::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: SimCamera::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  * Publishes `~image_raw` (sensor_msgs/Image, bgr8) and `~camera_info`.
  */
 #pragma once
@@ -23,7 +22,7 @@ namespace xpersif {
 
 class SimCamera : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -26,8 +26,7 @@
  * time (and before get_calls and get_facts answer), so the loop's many calls cost one commit each period and a
  * slow disk never holds a component up (it only publishes). Calls that arrive while the KB is down are lost.
  *
- * Parameters: KnowledgeBaseComponent::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: KnowledgeBaseComponent::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  *
  * Not kept: the record's `design` is published with the record but not stored (the core schema has no column
  * for it), so get_experiments returns it empty.
@@ -60,7 +59,7 @@ namespace xpersif {
 
 class KnowledgeBaseComponent : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

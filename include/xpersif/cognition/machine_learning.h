@@ -1,7 +1,7 @@
 /**
  * @file machine_learning.h
  * @brief MACHINELEARNING: learns from every stored push how objects move when pushed (a core::PushModel chosen
- *        by `~learner_type`, see README "Plugins") and what that means in words (its notions); predicts the
+ *        by `~learner_type`, see doc/plugins.md) and what that means in words (its notions); predicts the
  *        outcome of a push.
  *
  * It follows the KNOWLEDGEBASE's `experiments` (see experiment_follower.h): each DONE record of the current run
@@ -29,8 +29,7 @@
  * entry gets a unit that tells objects apart (saturation and colours 0.1, area 4 cm^2, elongation 0.25, ...).
  * `LearnedModel.features` says what a published model learns from.
  *
- * Parameters: MachineLearning::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: MachineLearning::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  */
 #pragma once
 
@@ -50,7 +49,7 @@ namespace xpersif {
 
 class MachineLearning : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -78,7 +78,7 @@ class CuriosityPart : public ComponentPart {
 
 class MotivationComponent : public AggregateComponent {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

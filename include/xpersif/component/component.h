@@ -20,8 +20,7 @@
  * One implementation class runs both as a nodelet and as a node: the class takes (nh, private_nh) and
  * the shells in shells.h construct it, call start(), and call halt() before destroying it.
  *
- * Parameters: Component::baseParameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: Component::baseParameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  */
 #pragma once
 

@@ -1,6 +1,6 @@
 /**
  * @file lockstep_client.h
- * @brief A component's side of XPERSim's lockstep clock (README "Lockstep"): join as a sensor or an actor,
+ * @brief A component's side of XPERSim's lockstep clock (doc/lockstep.md): join as a sensor or an actor,
  *        hear each tick, report it done. Any component can take part. When the simulator does not run in
  *        lockstep (its `clock_mode` parameter), enabled() is false and callers keep their timers.
  *

@@ -12,8 +12,7 @@
  * reported lost on `~events` and in `~status`; with `~restart` set, it is loaded and started again once
  * its manager answers again (a respawned manager, for instance).
  *
- * Parameters: Supervisor::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: Supervisor::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  * The list, e.g.:
  * @code
  * components:                      # started in this order, exited in the reverse order
@@ -53,7 +52,7 @@ struct SupervisedComponent {
 
 class Supervisor : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -2,7 +2,7 @@
  * @file design_of_experiments.h
  * @brief DESIGNOFEXPERIMENTS: the operation design_experiment, which chooses the next push with a
  *        core::ExperimentDesign chosen by name (~design, or the request's design): this package's curiosity,
- *        random and grid (experiment_design_plugins.xml) or any other package's (README "Plugins").
+ *        random and grid (experiment_design_plugins.xml) or any other package's (doc/plugins.md).
  *
  * The curiosity design is steered by MOTIVATION without calling it: the component keeps the latest latched
  * Motivation message (regions + curiosity) and evaluates each candidate push locally, by the region key
@@ -20,8 +20,7 @@
  * vector on ~features_topic (VISION's), always restricted to ~objects.
  *
  * The objects, their footprints and the push limits come from XPERSim's scene (core::SetupCatalogue).
- * Parameters: DesignOfExperiments::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference). An unknown design or bad
+ * Parameters: DesignOfExperiments::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md). An unknown design or bad
  * bounds make configure fail with the sentence naming the parameter (for a design: and listing the declared
  * ones); a request naming an undeclared design is refused with ResultCode INVALID and the same list.
  * Re-configuring restarts the design from its seed.
@@ -49,7 +48,7 @@ namespace xpersif {
 
 class DesignOfExperiments : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -28,8 +28,7 @@
  * Everything runs in the command's own thread (blocking calls are allowed there). One invoke client per
  * component, kept, with its own callback thread.
  *
- * Parameters: Execution::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: Execution::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  */
 #pragma once
 
@@ -56,7 +55,7 @@ std::string checkStepContract(const std::string& field, const PlanStep& step, co
 
 class Execution : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

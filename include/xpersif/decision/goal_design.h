@@ -5,7 +5,7 @@
  *
  * GOALDESIGN never calls MACHINELEARNING: it keeps its own core::PushModel, loaded (PushModel::load) from every
  * latched LearnedModel on ~model_topic, and the latest Notions on ~notions_topic. The model is made by pluginlib:
- * of the declared push models (README "Plugins"), the one whose format() is the message's format, so whichever
+ * of the declared push models (doc/plugins.md), the one whose format() is the message's format, so whichever
  * learner MACHINELEARNING runs, GOALDESIGN reads it without a parameter of its own.
  *
  * design_goal: an object of the scene (restricted to ~objects) that no notion calls does_not_move_when_pushed
@@ -23,8 +23,7 @@
  * of beats a guess (ties: the first candidate). expected_error is the chosen push's predicted end's distance.
  * Both refuse while no model has arrived.
  *
- * Parameters: GoalDesign::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference). The choices themselves are
+ * Parameters: GoalDesign::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md). The choices themselves are
  * core/goal_choice.h's.
  */
 #pragma once
@@ -54,7 +53,7 @@ namespace xpersif {
 
 class GoalDesign : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -16,15 +16,14 @@
  * `excluded` entries may name an operator with or without its component ("push", "manipulation/push",
  * "push(red_cube, -x, 0.01, 0.05)").
  *
- * The search is a core::PlanSearch chosen by name (README "Plugins"): ~search_type breadth_first (shortest
+ * The search is a core::PlanSearch chosen by name (doc/plugins.md): ~search_type breadth_first (shortest
  * plans), greedy, or another package's; an undeclared one fails configure with the list of declared searches.
  *
  * With `state_from_knowledge_base`, the initial state is `state` plus the current run's facts, which make_plan
  * asks KNOWLEDGEBASE's get_facts for (a KB that is not offered, or not within ~knowledge_base_timeout, makes the
  * call UNAVAILABLE; one that refuses, FAILED, with its sentence).
  *
- * Parameters: Planner::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: Planner::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  */
 #pragma once
 
@@ -65,7 +64,7 @@ std::vector<PlanStep> toStepMessages(const std::vector<core::PlanStep>& steps,
 
 class Planner : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

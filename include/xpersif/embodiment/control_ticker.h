@@ -1,7 +1,7 @@
 /**
  * @file control_ticker.h
  * @brief The clock of RELOCATION's and MANIPULATION's control loops: a fixed period on simulated time, or, when
- *        XPERSim runs in lockstep, its ticks (README "Lockstep"): the loop decides on the odometry (and, when it
+ *        XPERSim runs in lockstep, its ticks (doc/lockstep.md): the loop decides on the odometry (and, when it
  *        steers by the overhead camera, the observation) stamped with the tick, and its command goes to the
  *        simulator with its report, so the same inputs give the same trajectory whatever the machine's load.
  */

@@ -6,8 +6,7 @@
  * The robot model (a Khepera without a gripper) has no grip or release: `~has_gripper` is false, so those
  * commands are not offered, and ROBOTMODEL reports that it holds nothing.
  *
- * Parameters: Manipulation::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference). The arena comes from the `world` file
+ * Parameters: Manipulation::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md). The arena comes from the `world` file
  * (embodiment_setup.h).
  */
 #pragma once
@@ -33,7 +32,7 @@ void reportPush(const PushResult& result, InvokeResult& out);
 
 class Manipulation : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

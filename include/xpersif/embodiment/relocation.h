@@ -8,8 +8,7 @@
  * A cancel, the stop operation or a deactivation sends a zero velocity at once (within one control
  * period) and ends the goal.
  *
- * Parameters: Relocation::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference). The arena comes from the `world` file
+ * Parameters: Relocation::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md). The arena comes from the `world` file
  * (embodiment_setup.h).
  */
 #pragma once
@@ -45,7 +44,7 @@ void reportTurnTo(const TurnToResult& result, InvokeResult& out);
 
 class Relocation : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

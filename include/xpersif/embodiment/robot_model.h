@@ -6,8 +6,7 @@
  *        operation `get_robot_state` (pose, speeds, IR ring, contact, what it holds, which embodiment
  *        commands run).
  *
- * Parameters: RobotModel::parameters(), declared once with their defaults, ranges and meanings (README, Parameter
- * reference).
+ * Parameters: RobotModel::parameters(), declared once with their defaults, ranges and meanings (doc/parameters.md).
  */
 #pragma once
 
@@ -23,7 +22,7 @@ namespace xpersif {
 
 class RobotModel : public Supervisor {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

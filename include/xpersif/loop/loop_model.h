@@ -33,8 +33,7 @@
  * (FAILED: too few experiments carry every candidate) leaves the initial features, with a warning. GOALDESIGN is
  * asked for a model that learns from exactly these features.
  *
- * Parameters: LoopModel::parameters() (its own, the Supervisor's and the lockstep client's; README, Parameter
- * reference), and the `world` file for the arena (embodiment_setup.h).
+ * Parameters: LoopModel::parameters() (its own, the Supervisor's and the lockstep client's; doc/parameters.md), and the `world` file for the arena (embodiment_setup.h).
  */
 #pragma once
 
@@ -66,7 +65,7 @@ namespace xpersif {
 
 class LoopModel : public Supervisor {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -29,7 +29,7 @@ namespace xpersif {
 
 class Observation : public AggregateComponent {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

@@ -70,7 +70,7 @@ class LatestMessagePart : public ComponentPart {
 
 class Perception : public AggregateComponent {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

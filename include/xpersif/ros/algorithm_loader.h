@@ -7,7 +7,7 @@
  *
  * Classes are declared by any package that depends on xpersif and exports `<xpersif plugin="${prefix}/x.xml"/>`
  * (this package: push_model_plugins.xml, experiment_design_plugins.xml, plan_search_plugins.xml); see
- * README "Plugins". The loader must outlive every instance it made (their code lives in its libraries):
+ * doc/plugins.md. The loader must outlive every instance it made (their code lives in its libraries):
  * declare it before the members that hold them.
  */
 #pragma once

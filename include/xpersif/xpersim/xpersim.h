@@ -3,7 +3,7 @@
  * @brief XPERSim, the simulator, as a component: an ODE world (core::PhysicsWorld) stepped at a fixed
  *        rate in its own thread, published as tf so that every client renders the scene itself.
  *
- * Parameters: XPerSim::parameters() (read on configure; README, Parameter reference).
+ * Parameters: XPerSim::parameters() (read on configure; doc/parameters.md).
  *
  * Publishes: /clock, /tf (dynamic nodes, one TFMessage per frame), /tf_static (latched), `~scene`
  * (latched), `~markers` (latched, frame-locked, arena and objects), `~ground_truth`, and the robot's
@@ -11,7 +11,7 @@
  * `wheel_speeds`. Operations: `~pause`, `~resume`, `~step`, `~reset`, `~set_pose`, `~get_scene`,
  * `~checkpoint`, `~restore`.
  *
- * Lockstep mode (README "Lockstep"): simulated time advances one control tick (`~tick_period`, s of simulated
+ * Lockstep mode (doc/lockstep.md): simulated time advances one control tick (`~tick_period`, s of simulated
  * time, default 0.02) at a time, and only when every participant (joined through `~lockstep`) has reported the
  * tick on `~lockstep_done` and one of them wants time to go on. Each tick publishes /clock, /tf and the robot's
  * sensors once, then `~tick` (SENSE), then `~tick` (ACT) once every sensor has reported; the robot's command is
@@ -42,7 +42,7 @@ namespace xpersif {
 
 class XPerSim : public Component {
  public:
-  /// Its parameters, declared once (README, Parameter reference).
+  /// Its parameters, declared once (doc/parameters.md).
   static const core::ParameterTable& parameters();
   const core::ParameterTable* declaredParameters() const override { return &parameters(); }
 

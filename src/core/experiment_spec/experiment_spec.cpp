@@ -386,7 +386,7 @@ ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Ove
           const ParameterSpec* spec = parameters.find(name);
           if (!spec) {
             r.fail(where, "is not a parameter of " + component + ": " + parameters.undeclared({name}).front() +
-                              " is not declared (README, Parameter reference)", value.first);
+                              " is not declared (doc/parameters.md)", value.first);
           }
           if (spec->set_by_component) r.fail(where, "is set by " + component + " itself, not read", value.first);
           const auto typed = valueAs(*spec, value.second);

@@ -3,7 +3,7 @@
  * @brief What every command-line tool of the package shares: its exit codes, and checks of arguments and files
  *        that turn a bad number, a missing file or a directory without permission into one sentence. ROS-free.
  *
- * Exit codes (README "Exit codes"), the same for `xpersif`, `xpersif_report`, `xpersif_export`,
+ * Exit codes (doc/exit-codes.md), the same for `xpersif`, `xpersif_report`, `xpersif_export`,
  * `xpersif_train_offline`, `xpersif_recover_bag`, `xpersif_experiment` and `scripts/run.sh`:
  *   0 done; 1 it ran and failed (a phase, the report, the system did not answer); 2 usage: an unknown option, a
  *   missing or malformed argument (also a bad experiment file: nothing started); 3 a bad input file: missing,

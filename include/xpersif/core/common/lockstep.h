@@ -2,7 +2,7 @@
  * @file lockstep.h
  * @brief The lockstep clock's bookkeeping, ROS-free: who must finish each control tick before simulated time
  *        may advance, and when a tick is complete. XPERSim (the coordinator) owns one; the protocol around it
- *        is in the README ("Lockstep").
+ *        is in doc/lockstep.md.
  *
  * A tick has two phases. SENSE: physics has advanced to the tick's time; sensing participants (cameras and
  * the perception behind them) render and publish what is due, then report. ACT: every sensor has reported;

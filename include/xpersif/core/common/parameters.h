@@ -3,7 +3,7 @@
  * @brief Every component parameter declared once: name, type, default, range and meaning (ROS-free).
  *
  * A component keeps one ParameterTable. Its ROS face reads values through it (component/parameters.h), so the
- * default, the range check and the sentence for a bad value come from the declaration; the README's parameter
+ * default, the range check and the sentence for a bad value come from the declaration; doc/parameters.md's parameter
  * reference is generated from the same tables (`xpersif_parameters`), and a component warns about parameters
  * set under its namespace that it does not declare (a typo in a launch file is otherwise silently ignored).
  */

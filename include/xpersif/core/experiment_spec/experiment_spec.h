@@ -7,7 +7,7 @@
 ///
 /// Every mistake is reported before anything starts, as one sentence that names the experiment file, the key
 /// and what is wrong, e.g. `experiments/x.yaml: phases[1].experiments is -3; it must be an integer in 1..100000`.
-/// The schema is documented in README.md ("Experiment files") and in experiments/default.yaml.
+/// The schema is documented in doc/experiments.md and in experiments/default.yaml.
 #include <cstdint>
 #include <map>
 #include <string>

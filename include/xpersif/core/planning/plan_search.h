@@ -7,7 +7,7 @@
  * A search sees the planning problem after grounding and pruning (core/planner.h does both): facts are
  * numbered, actions are ground operators with positive and negative preconditions and add/delete effects, the
  * goal is a list of (fact, negated) literals. It never sees contracts or strings, so a search written in
- * another package needs nothing but this header (and, to be found by name, a pluginlib export; README
+ * another package needs nothing but this header (and, to be found by name, a pluginlib export; doc/plugins.md
  * "Plugins").
  *
  * Every search must:

@@ -11,7 +11,7 @@
  * (the send window), so the socket's queue stays below window + one message. A client whose socket queue
  * does not drain for `stall_timeout` seconds has stopped reading and is to be disconnected.
  *
- * The wire format (README "Observation in a browser"): text messages are JSON objects with a "type"; frames
+ * The wire format (doc/watching.md): text messages are JSON objects with a "type"; frames
  * are binary (encodeFrame). Client messages are JSON objects too (parseClientMessage); anything else gets a
  * WebSocket close code and a sentence.
  */
