@@ -33,6 +33,9 @@ import time
 
 import yaml
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import xpersif_plots  # noqa: E402  (scripts/, beside this file)
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # Object keys a world file may give an object whose behaviour is fixed (doc/worlds.md). An object with
 # any other key (e.g. a property the simulator redraws before each push) is taken as unlearnable.
@@ -779,13 +782,8 @@ def report(args, cells, eval_objects, eval_why):
 
 
 def plots(out, designs, curve_rows, share_rows, objects):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("study: matplotlib is missing (Debian's python3-matplotlib); no plots, the CSV files are written",
-              file=sys.stderr)
+    plt = xpersif_plots.pyplot()
+    if plt is None:
         return
     fig, ax = plt.subplots(figsize=(8, 5))
     for design in designs:
@@ -795,13 +793,11 @@ def plots(out, designs, curve_rows, share_rows, objects):
         everyone = max((r["seeds"] for r in rows), default=0)
         rows = [r for r in rows if r["seeds"] == everyone]
         k = [r["experiments"] for r in rows]
-        line, = ax.plot(k, [r["mean"] for r in rows], label=design)
-        ax.fill_between(k, [r["ci_low"] for r in rows], [r["ci_high"] for r in rows], alpha=0.2, color=line.get_color())
-    ax.set_xlabel("experiments learned from (while every seed has that many)")
-    ax.set_ylabel("RMS prediction error on the held-out set (m)")
+        colour = xpersif_plots.design_colour(design, designs)
+        ax.plot(k, [r["mean"] for r in rows], label=design, color=colour)
+        ax.fill_between(k, [r["ci_low"] for r in rows], [r["ci_high"] for r in rows], alpha=0.2, color=colour)
     ax.set_title("Learning curves, mean and 95 % interval over seeds")
-    ax.set_ylim(bottom=0)
-    ax.legend()
+    xpersif_plots.learning_curve_axes(ax, "experiments learned from (while every seed has that many)")
     fig.tight_layout()
     fig.savefig(os.path.join(out, "learning_curves.png"), dpi=100)
     plt.close(fig)
