@@ -11,17 +11,23 @@ set +u  # catkin's setup files read unset variables
 # catkin's setup sets ROS_MASTER_URI=http://localhost:11311 when it is unset (/etc/catkin/profile.d); what
 # counts is whether the caller had set it.
 _xpersif_master_uri=${ROS_MASTER_URI:-}
+# A file sourced without arguments sees its caller's: catkin's setup.bash would hand them to _setup_util.py (a
+# script run with --help printed that tool's usage, which the shell then ran). A function has arguments of its own.
+_xpersif_source() {
+  local file=$1
+  shift
+  # shellcheck disable=SC1090
+  source "$file"
+}
 if [[ -f "$_xpersif_repo/build/devel/setup.bash" ]]; then
-  # shellcheck disable=SC1091
-  source "$_xpersif_repo/build/devel/setup.bash"
+  _xpersif_source "$_xpersif_repo/build/devel/setup.bash"
   _xpersif_bin="$_xpersif_repo/build/devel/lib/xpersif"
 elif [[ -f "$_xpersif_repo/package.xml" && -d "$_xpersif_repo/../../lib/xpersif" ]]; then
   # Installed (cmake --install): <prefix>/share/xpersif/scripts/env.sh. A workspace's install has a setup.bash
   # at <prefix>; the package installed alone has none, so the paths are set here.
   _xpersif_prefix=$(cd "$_xpersif_repo/../.." && pwd)
   if [[ -f "$_xpersif_prefix/setup.bash" ]]; then
-    # shellcheck disable=SC1091
-    source "$_xpersif_prefix/setup.bash"
+    _xpersif_source "$_xpersif_prefix/setup.bash"
   else
     export CMAKE_PREFIX_PATH="$_xpersif_prefix${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}"
     export ROS_PACKAGE_PATH="$_xpersif_prefix/share${ROS_PACKAGE_PATH:+:$ROS_PACKAGE_PATH}"
@@ -77,3 +83,4 @@ if [[ -z "$_xpersif_master_uri" || "${XPERSIF_NEW_MASTER:-0}" == 1 ]]; then
   export ROS_MASTER_URI="http://${_xpersif_address}:${_port}"
 fi
 export PATH="$_xpersif_bin:$PATH"
+unset -f _xpersif_source

@@ -20,9 +20,24 @@
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}" files=0 hosts=""
-usage() { echo "run.sh: $* (usage: bash scripts/run.sh [FILE] [--set KEY=VALUE]... [--run-dir DIR] [--hosts ARGS])" >&2; exit 2; }
+help() {
+  cat <<'TEXT'
+usage: bash scripts/run.sh [FILE] [--set KEY=VALUE]... [--run-dir DIR] [--hosts ARGS]
+Runs an experiment file from start to end, headless, on a roscore of its own (installs and builds first).
+  FILE             an experiment file (default experiments/default.yaml; doc/experiments.md)
+  --set KEY=VALUE  override a key of the file: --set seed=3, --set phases.1.experiments=8,
+                   --set recording.mode=bags, --set world=../worlds/mixed.yaml (relative to FILE's directory)
+  --run-dir DIR    instead of the file's run_dir (also: XPERSIF_RUN_DIR)
+  --hosts 'ARGS'   where the parts run: xpersif.launch's host arguments, e.g. 'sim_host=10.0.0.5' (doc/hosts.md)
+  -h, --help       print this usage
+Exit codes: 0 done; 1 a phase or the report failed; 2 usage or a bad experiment file (nothing started);
+4 the run directory cannot be written (doc/exit-codes.md).
+TEXT
+}
+usage() { echo "run.sh: $*" >&2; help >&2; exit 2; }
 while (($#)); do
   case "$1" in
+    -h|--help) help; exit 0 ;;
     --set) (($# >= 2)) || usage "--set needs KEY=VALUE"; [[ "$2" == *=* ]] || usage "--set $2: expected KEY=VALUE"
            overrides+=("$2"); shift 2 ;;
     --run-dir) (($# >= 2)) && [[ -n "$2" ]] || usage "--run-dir needs a directory"; run_dir=$2; shift 2 ;;

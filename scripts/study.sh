@@ -9,6 +9,10 @@
 # It installs and builds first (scripts/setup.sh) unless XPERSIF_SKIP_SETUP=1.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+# The usage needs no build.
+for argument in "$@"; do
+  [[ "$argument" == -h || "$argument" == --help ]] && exec /usr/bin/python3 "$repo/scripts/study.py" --help
+done
 [[ "${XPERSIF_SKIP_SETUP:-0}" == 1 ]] || bash "$repo/scripts/setup.sh"
 # shellcheck disable=SC1091
 source "$repo/scripts/env.sh"

@@ -113,12 +113,12 @@ case_() {
 
 # xpersif_train_offline
 P=$BIN/xpersif_train_offline
-case_ "a bad number: --seed abc" 2 "--seed is 'abc'" -- "$P" --seed abc "$T/full.bag"
-case_ "a negative number: --seed -1" 2 "--seed is '-1'" -- "$P" --seed -1 "$T/full.bag"
-case_ "a number too big: --run 1e99" 2 "--run is '1e99'" -- "$P" --run 1e99 "$T/full.bag"
-case_ "a missing value: --seed" 2 "--seed needs a value" -- "$P" "$T/full.bag" --seed
-case_ "an unknown option" 2 "unknown option --sead" -- "$P" --sead 3 "$T/full.bag"
-case_ "no input" 2 "give at least one bag" -- "$P"
+case_ "a bad number: --seed abc" 2 "--seed: 'abc' is not a whole number" -- "$P" --seed abc "$T/full.bag"
+case_ "a negative number: --seed -1" 2 "--seed: '-1' is not a whole number" -- "$P" --seed -1 "$T/full.bag"
+case_ "a number too big: --run 1e99" 2 "--run: '1e99' is not a whole number" -- "$P" --run 1e99 "$T/full.bag"
+case_ "a missing value: --seed" 2 "--seed: 1 required" -- "$P" "$T/full.bag" --seed
+case_ "an unknown option" 2 "not expected: --sead" -- "$P" --sead 3 "$T/full.bag"
+case_ "no input" 2 "BAG_OR_RUN_DIR is required" -- "$P"
 case_ "a missing bag" 3 "does not exist" -- "$P" "$T/missing.bag"
 case_ "a bag of random bytes" 3 "random.bag" -- "$P" "$T/random.bag"
 case_ "a truncated bag" 3 "truncated.bag" -- "$P" "$T/truncated.bag"
@@ -130,12 +130,12 @@ case_ "-o under a file" 4 "is not a directory" -- "$P" -o "$T/file.txt/m.yaml" "
 
 # xpersif_export
 P=$BIN/xpersif_export
-case_ "a bad number: --pose-period abc" 2 "--pose-period is 'abc'" -- "$P" --pose-period abc "$T/full.bag"
-case_ "a non-finite number: --pose-period nan" 2 "--pose-period is 'nan'" -- "$P" --pose-period nan "$T/full.bag"
-case_ "a missing value: -o" 2 "-o needs a value" -- "$P" "$T/full.bag" -o
-case_ "an unknown option" 2 "unknown option --bogus" -- "$P" --bogus "$T/full.bag"
+case_ "a bad number: --pose-period abc" 2 "--pose-period: 'abc' is not a finite number" -- "$P" --pose-period abc "$T/full.bag"
+case_ "a non-finite number: --pose-period nan" 2 "--pose-period: 'nan' is not a finite number" -- "$P" --pose-period nan "$T/full.bag"
+case_ "a missing value: -o" 2 "--out: 1 required" -- "$P" "$T/full.bag" -o
+case_ "an unknown option" 2 "not expected: --bogus" -- "$P" --bogus "$T/full.bag"
 case_ "a bad regular expression" 2 "is not a regular expression" -- "$P" --frames "(" "$T/full.bag"
-case_ "no input" 2 "give at least one bag" -- "$P"
+case_ "no input" 2 "BAG_OR_RUN_DIR is required" -- "$P"
 case_ "a missing bag" 3 "does not exist" -- "$P" -o "$T/out" "$T/missing.bag"
 case_ "a bag of random bytes" 3 "random.bag" -- "$P" -o "$T/out" "$T/random.bag"
 case_ "a truncated bag" 3 "truncated.bag" -- "$P" -o "$T/out" "$T/truncated.bag"
@@ -146,8 +146,8 @@ case_ "-o a file" 4 "is not a directory" -- "$P" -o "$T/file.txt" "$T/full.bag"
 
 # xpersif_recover_bag
 P=$BIN/xpersif_recover_bag
-case_ "no argument" 2 "give at least one bag" -- "$P"
-case_ "an unknown option" 2 "unknown option --force" -- "$P" --force "$T/random.bag.active"
+case_ "no argument" 2 "BAG is required" -- "$P"
+case_ "an unknown option" 2 "not expected: --force" -- "$P" --force "$T/random.bag.active"
 case_ "a missing bag" 3 "does not exist" -- "$P" "$T/missing.bag.active"
 case_ "a bag of random bytes" 3 "random.bag.active" -- "$P" "$T/random.bag.active"
 case_ "a directory" 3 "is a directory" -- "$P" "$T/nobags"
@@ -156,9 +156,9 @@ case_ "in a directory without permission (nobody)" 4 "cannot be written" -- "${a
 
 # xpersif_report
 P=$BIN/xpersif_report
-case_ "no argument" 2 "give the knowledge base with --database" -- "$P"
-case_ "a missing value: --out" 2 "--out needs a value" -- "$P" --database "$T/full.db" --out
-case_ "an unknown option" 2 "unknown option --bogus" -- "$P" --bogus x
+case_ "no argument" 2 "--database is required" -- "$P"
+case_ "a missing value: --out" 2 "--out: 1 required" -- "$P" --database "$T/full.db" --out
+case_ "an unknown option" 2 "not expected: --bogus" -- "$P" --bogus x
 case_ "a missing knowledge base" 3 "does not exist" -- "$P" --database "$T/missing.db" --out "$T/out"
 case_ "a knowledge base of random bytes" 3 "random.db" -- "$P" --database "$T/random.db" --out "$T/out"
 case_ "a truncated knowledge base" 3 "truncated.db" -- "$P" --database "$T/truncated.db" --out "$T/out"
@@ -169,14 +169,14 @@ case_ "--out a directory without permission (nobody)" 4 "cannot be written" -- "
 
 # xpersif (the console)
 P=$BIN/xpersif
-case_ "a bad number: run --seed abc" 2 "--seed is 'abc'" -- "$P" run demo --seed abc
-case_ "a negative number: run --experiments -3" 2 "--experiments is '-3'" -- "$P" run demo --experiments -3
-case_ "a missing value: run --goals" 2 "--goals needs a value" -- "$P" run demo --goals
-case_ "an unknown option: run --bogus" 2 "unknown option --bogus" -- "$P" run demo --bogus
-case_ "no name: run" 2 "run needs exactly one NAME" -- "$P" run
+case_ "a bad number: run --seed abc" 2 "--seed: 'abc' is not a whole number" -- "$P" run demo --seed abc
+case_ "a negative number: run --experiments -3" 2 "--experiments: '-3' is not a whole number" -- "$P" run demo --experiments -3
+case_ "a missing value: run --goals" 2 "--goals: 1 required" -- "$P" run demo --goals
+case_ "an unknown option: run --bogus" 2 "not expected: --bogus" -- "$P" run demo --bogus
+case_ "no name: run" 2 "NAME is required" -- "$P" run
 case_ "a non-finite offset: next" 2 "next needs OBJECT SIDE OFFSET DISTANCE" -- "$P" next red_cube -x nan 0.05
-case_ "a bad number: --timeout abc" 2 "--timeout is 'abc'" -- "$P" status --timeout abc
-case_ "an unknown command" 2 "cannot understand 'bogus'" -- "$P" bogus
+case_ "a bad number: --timeout abc" 2 "--timeout: 'abc' is not a finite number" -- "$P" status --timeout abc
+case_ "an unknown command" 2 "not expected: bogus" -- "$P" bogus
 case_ "a missing plan file" 2 "cannot read the plan file" -- "$P" run demo --plan "$T/missing.plan"
 case_ "a plan file of random bytes" 2 "expected OBJECT SIDE OFFSET DISTANCE" -- "$P" run demo --plan "$T/random.bag"
 case_ "no master: status" 1 "no ROS master" -- "$P" status
@@ -188,12 +188,12 @@ case_ "rerun: not a run directory" 2 "holds no experiment.yaml" -- "$P" rerun "$
 
 # xpersif_experiment
 P=$BIN/xpersif_experiment
-case_ "check: no file" 2 "check needs an experiment file" -- "$P" check
+case_ "check: no file" 2 "FILE is required" -- "$P" check
 case_ "check: a missing file" 2 "missing.yaml" -- "$P" check "$T/missing.yaml"
 case_ "check: random bytes" 2 "random.yaml" -- "$P" check "$T/random.yaml"
 case_ "check: a bad number (seed=abc)" 2 "seed" -- "$P" check "$HERE/experiments/short.yaml" seed=abc
 case_ "check: a world whose arena size is a word" 2 "word_arena.yaml: arena.size[0] is 'wide'" -- "$P" check "$T/word_arena_experiment.yaml"
-case_ "as a node: an unexpected argument" 2 "unexpected argument '--seed'" -- "$P" --seed 3
+case_ "as a node: an unexpected argument" 2 "not expected: --seed 3" -- "$P" --seed 3
 case_ "as a node: no master" 1 "no ROS master" -- "$P"
 
 # scripts/run.sh (what it refuses before it builds or starts anything)

@@ -31,38 +31,13 @@
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/RunLoopAction.h"
 #include "run_driver.h"
+#include "tool_command_line.h"
 #include "xpersif/SetExperiment.h"
 #include "xpersif/GetContracts.h"
 #include "xpersif/Transition.h"
 
 namespace {
 
-const char* kUsage = R"(usage: xpersif <command> [arguments]
-
-  status [--timeout S]                 show every component's state, health, heartbeat and parts
-  wait [--timeout S] COMPONENT...      wait until the components (and all their parts) are ACTIVE;
-                                       exit 1 with the reason when they are not within S seconds
-  configure|activate|deactivate|shutdown COMPONENT
-                                       ask a component for a lifecycle transition
-  contracts COMPONENT [NAME]           show the preconditions and effects of its commands and operations
-  check-world FILE                     check a world file without ROS: what the loop will be told about its
-                                       objects and the limits derived from them; exit 3 with the reason
-  rerun RUN_DIR [--run-dir DIR] [KEY=VALUE...]
-                                       repeat the experiment of a run directory from what it stored
-                                       (RUN_DIR/experiment.yaml, its world and URDF) through
-                                       `roslaunch xpersif experiment.launch`, into DIR (default
-                                       RUN_DIR-rerun-<time>); exit status: the experiment's (0 done)
-
-The loop (LOOPMODEL at --loop, default /xpersif/loop_model):
-  run NAME [--experiments N] [--goals N] [--design curiosity|random|grid] [--seed S] [--resume]
-      [--confirm-each] [--plan FILE]     start a run and follow it to the end (Ctrl-C cancels it);
-                                       FILE: one pre-planned experiment per line: OBJECT SIDE OFFSET DISTANCE
-  pause | resume | stop | confirm      sliding autonomy on the running loop
-  next OBJECT SIDE OFFSET DISTANCE     run this experiment next instead of the designed one
-  progress                             the loop's state and its last experiment
-
-COMPONENT is a node name such as /loop/supervisor. Default timeout: 3 s for status, 60 s for wait.
-)";
 
 using StatusMap = std::map<std::string, xpersif::ComponentStatus>;
 
@@ -277,69 +252,27 @@ int progress() {
 
 volatile std::sig_atomic_t interrupted = 0;
 
-/// The run command's goal from its arguments, before anything talks to ROS: kExitOk, or the exit code after the
-/// sentence has been printed.
-int parseRunGoal(const std::vector<std::string>& rest, xpersif::RunLoopGoal& goal) {
-  using xpersif::core::parseWholeNumber;
-  goal.experiments = 20;
-  goal.goals = 5;
-  goal.design = "curiosity";
-  goal.seed = 1;
-  std::vector<std::string> words;
-  try {
-    for (std::size_t i = 0; i < rest.size(); ++i) {
-      const std::string& a = rest[i];
-      auto value = [&]() -> const std::string& {
-        if (i + 1 >= rest.size()) throw xpersif::core::UsageError(a + " needs a value");
-        return rest[++i];
-      };
-      if (a == "--experiments") {
-        goal.experiments = static_cast<std::uint32_t>(parseWholeNumber("--experiments", value(), 0, UINT32_MAX));
-      } else if (a == "--goals") {
-        goal.goals = static_cast<std::uint32_t>(parseWholeNumber("--goals", value(), 0, UINT32_MAX));
-      } else if (a == "--design") {
-        goal.design = value();
-      } else if (a == "--seed") {
-        goal.seed = parseWholeNumber("--seed", value());
-      } else if (a == "--resume") {
-        goal.resume = true;
-      } else if (a == "--confirm-each") {
-        goal.confirm_each = true;
-      } else if (a == "--plan") {
-        const std::string& file = value();
-        std::ifstream in(file);
-        if (!in) {
-          std::cerr << "xpersif: cannot read the plan file " << file << "\n";
-          return xpersif::core::kExitUsage;
-        }
-        std::string line;
-        for (int number = 1; std::getline(in, line); ++number) {
-          std::istringstream fields(line);
-          std::vector<std::string> parts{std::istream_iterator<std::string>(fields), {}};
-          if (parts.empty() || parts[0][0] == '#') continue;
-          xpersif::Experiment e;
-          if (!parseExperiment(parts, 0, &e)) {
-            std::cerr << "xpersif: " << file << ":" << number
-                      << ": expected OBJECT SIDE OFFSET DISTANCE (offset and distance finite numbers)\n";
-            return xpersif::core::kExitUsage;
-          }
-          goal.plan.push_back(e);
-        }
-      } else if (!a.empty() && a[0] == '-') {
-        throw xpersif::core::UsageError("run: unknown option " + a);
-      } else {
-        words.push_back(a);
-      }
+/// The plan file's experiments (one per line: OBJECT SIDE OFFSET DISTANCE; '#' comments) appended to the goal:
+/// kExitOk, or kExitUsage after the sentence has been printed.
+int readPlanFile(const std::string& file, xpersif::RunLoopGoal& goal) {
+  std::ifstream in(file);
+  if (!in) {
+    std::cerr << "xpersif: cannot read the plan file " << file << "\n";
+    return xpersif::core::kExitUsage;
+  }
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    std::istringstream fields(line);
+    std::vector<std::string> parts{std::istream_iterator<std::string>(fields), {}};
+    if (parts.empty() || parts[0][0] == '#') continue;
+    xpersif::Experiment e;
+    if (!parseExperiment(parts, 0, &e)) {
+      std::cerr << "xpersif: " << file << ":" << number
+                << ": expected OBJECT SIDE OFFSET DISTANCE (offset and distance finite numbers)\n";
+      return xpersif::core::kExitUsage;
     }
-  } catch (const std::exception& e) {
-    std::cerr << "xpersif: " << e.what() << "\n";
-    return xpersif::core::kExitUsage;
+    goal.plan.push_back(e);
   }
-  if (words.size() != 1) {
-    std::cerr << "xpersif: run needs exactly one NAME\n" << kUsage;
-    return xpersif::core::kExitUsage;
-  }
-  goal.name = words[0];
   return xpersif::core::kExitOk;
 }
 
@@ -405,22 +338,7 @@ int checkWorld(const std::string& file) {
 
 /// `xpersif rerun`: experiment.launch pointed at the stored experiment, on the master of ROS_MASTER_URI (started
 /// by roslaunch when none runs there). The outcome is the runner's status file, since roslaunch exits 0 anyway.
-int rerun(const std::vector<std::string>& rest) {
-  std::string old_dir, new_dir;
-  std::vector<std::string> overrides;
-  for (std::size_t i = 0; i < rest.size(); ++i) {
-    if (rest[i] == "--run-dir" && i + 1 < rest.size()) {
-      new_dir = rest[++i];
-    } else if (old_dir.empty()) {
-      old_dir = rest[i];
-    } else {
-      overrides.push_back(rest[i]);
-    }
-  }
-  if (old_dir.empty()) {
-    std::cerr << "xpersif: rerun needs a run directory\n";
-    return 2;
-  }
+int rerun(std::string old_dir, std::string new_dir, const std::vector<std::string>& overrides) {
   // Absolute: the runner works in another directory.
   old_dir = std::filesystem::absolute(old_dir).lexically_normal().string();
   while (old_dir.size() > 1 && old_dir.back() == '/') old_dir.pop_back();
@@ -472,64 +390,101 @@ int rerun(const std::vector<std::string>& rest) {
   return code;
 }
 
-int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (args.empty() || args[0] == "-h" || args[0] == "--help") {
-    std::cout << kUsage;
-    return args.empty() ? 2 : 0;
+namespace {
+
+/// What the command line asked for: the subcommand and its arguments, checked before anything talks to ROS.
+struct Request {
+  CLI::App* command = nullptr;
+  double timeout = -1;  // s; -1: the command's default
+  std::vector<std::string> components;  // wait
+  std::string component, contract;      // transitions, contracts
+  std::string file;                     // check-world
+  std::string run_dir, new_run_dir;     // rerun
+  std::vector<std::string> overrides;   // rerun KEY=VALUE
+  xpersif::RunLoopGoal goal;            // run
+  std::string plan;                     // run --plan
+  std::vector<std::string> experiment;  // next OBJECT SIDE OFFSET DISTANCE
+};
+
+void addCommands(CLI::App& app, Request& r) {
+  app.require_subcommand(1, 1);
+  app.fallthrough();  // --timeout and --loop also after the command
+  app.add_option("--timeout", r.timeout, "seconds to wait (default 3 for status, 60 for wait)")
+      ->check(xpersif::tools::finiteNumber(1e-3, 1e6));
+  app.add_option("--loop", loop_name, "LOOPMODEL's node")->capture_default_str();
+  app.add_subcommand("status", "show every component's state, health, heartbeat and parts");
+  app.add_subcommand("wait", "wait until the components (and all their parts) are ACTIVE; exit 1 with the reason "
+                             "when they are not within the timeout")
+      ->add_option("COMPONENT", r.components, "node names such as /loop/supervisor")
+      ->required();
+  for (const char* verb : {"configure", "activate", "deactivate", "shutdown"}) {
+    app.add_subcommand(verb, std::string("ask a component to ") + verb)
+        ->add_option("COMPONENT", r.component, "a node name such as /xpersif/xpersim")
+        ->required();
   }
-  const std::string command = args[0];
-  double timeout = -1;
-  std::vector<std::string> rest;
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    if (args[i] == "--timeout" && i + 1 < args.size()) {
-      try {
-        timeout = xpersif::core::parseRealNumber("--timeout", args[++i], 1e-3, 1e6);
-      } catch (const std::exception& e) {
-        std::cerr << "xpersif: " << e.what() << " seconds\n";
-        return xpersif::core::kExitUsage;
-      }
-    } else if (args[i] == "--loop" && i + 1 < args.size()) {
-      loop_name = args[++i];
-    } else {
-      rest.push_back(args[i]);
-    }
+  auto* contracts = app.add_subcommand("contracts", "show the preconditions and effects of a component's commands "
+                                                    "and operations");
+  contracts->add_option("COMPONENT", r.component, "a node name such as /xpersif/manipulation")->required();
+  contracts->add_option("NAME", r.contract, "only this command or operation");
+  app.add_subcommand("check-world", "check a world file without ROS: what the loop will be told about its objects "
+                                    "and the limits derived from them; exit 3 with the reason")
+      ->add_option("FILE", r.file, "the world file")
+      ->required();
+  auto* rerun = app.add_subcommand("rerun", "repeat the experiment of a run directory from what it stored, through "
+                                            "`roslaunch xpersif experiment.launch`; exit status: the experiment's");
+  rerun->add_option("RUN_DIR", r.run_dir, "a run directory of an experiment file's run")->required();
+  rerun->add_option("KEY=VALUE", r.overrides, "keys of the stored experiment to change");
+  rerun->add_option("--run-dir", r.new_run_dir, "where the rerun goes (default RUN_DIR-rerun-<time>)");
+  auto* run = app.add_subcommand("run", "start a run of the loop and follow it to the end (Ctrl-C cancels it)");
+  r.goal.experiments = 20;
+  r.goal.goals = 5;
+  r.goal.design = "curiosity";
+  r.goal.seed = 1;
+  run->add_option("NAME", r.goal.name, "the run's name in the knowledge base")->required();
+  run->add_option("--experiments", r.goal.experiments, "experiments to design and run")
+      ->check(xpersif::tools::wholeNumber(0, UINT32_MAX))
+      ->capture_default_str();
+  run->add_option("--goals", r.goal.goals, "goals to reach afterwards")
+      ->check(xpersif::tools::wholeNumber(0, UINT32_MAX))
+      ->capture_default_str();
+  run->add_option("--design", r.goal.design, "curiosity, random, grid or another design plugin")->capture_default_str();
+  run->add_option("--seed", r.goal.seed, "the run's seed")->check(xpersif::tools::wholeNumber())->capture_default_str();
+  run->add_flag("--resume", r.goal.resume, "continue the latest unfinished run of NAME");
+  run->add_flag("--confirm-each", r.goal.confirm_each, "wait for `xpersif confirm` before every step");
+  run->add_option("--plan", r.plan, "a file of pre-planned experiments, one per line: OBJECT SIDE OFFSET DISTANCE");
+  for (const char* verb : {"pause", "resume", "stop", "confirm"}) {
+    app.add_subcommand(verb, std::string("sliding autonomy: ") + verb + " the running loop");
   }
-  if (command == "check-world") {
-    if (rest.size() != 1) {
-      std::cerr << "xpersif: check-world needs one world file\n";
-      return 2;
-    }
-    return checkWorld(rest[0]);
-  }
-  if (command == "rerun") return rerun(rest);
-  // Arguments are checked before anything talks to ROS: a typo is a usage error whether or not a system runs.
-  xpersif::RunLoopGoal run_goal;
-  if (command == "run") {
-    if (const int code = parseRunGoal(rest, run_goal); code != xpersif::core::kExitOk) return code;
-  }
-  const bool known = command == "status" || (command == "wait" && !rest.empty()) || command == "run" || command == "next" ||
-                     command == "progress" ||
-                     ((command == "configure" || command == "activate" || command == "deactivate" ||
-                       command == "shutdown") && rest.size() == 1) ||
-                     (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) ||
-                     ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") &&
-                      rest.empty());
-  if (!known) {
-    std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
-    return xpersif::core::kExitUsage;
-  }
-  if (command == "next") {
+  app.add_subcommand("next", "run this experiment next instead of the designed one: OBJECT SIDE OFFSET DISTANCE, "
+                             "e.g. next red_cube -x 0.01 0.05")
+      ->add_option("OBJECT SIDE OFFSET DISTANCE", r.experiment, "the experiment (SIDE: -x, +x, -y or +y)")
+      ->expected(4);
+  app.add_subcommand("progress", "the loop's state and its last experiment");
+}
+
+/// The request's remaining checks (those that read files or need all its words): kExitOk, or the exit code after
+/// the sentence.
+int checkRequest(Request& r) {
+  const std::string name = r.command->get_name();
+  if (name == "run" && !r.plan.empty()) return readPlanFile(r.plan, r.goal);
+  if (name == "next") {
     xpersif::Experiment e;
-    if (rest.size() != 4 || !parseExperiment(rest, 0, &e)) {
-      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers)\n";
+    if (r.experiment.size() != 4 || !parseExperiment(r.experiment, 0, &e)) {
+      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers)\n"
+                << r.command->help();
       return xpersif::core::kExitUsage;
     }
   }
+  return xpersif::core::kExitOk;
+}
+
+/// Runs a command that talks to the running system.
+int runOnSystem(int argc, char** argv, Request& r) {
+  const std::string command = r.command->get_name();
   ros::init(argc, argv, "xpersif_console", ros::init_options::AnonymousName | ros::init_options::NoSigintHandler);
   if (command == "wait") {
     // The system may still be starting: give the master the same time as the components.
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout > 0 ? timeout : 60.0);
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(r.timeout > 0 ? r.timeout : 60.0);
     while (!ros::master::check() && ros::WallTime::now() < end) ros::WallDuration(0.2).sleep();
   }
   if (!ros::master::check()) {
@@ -540,27 +495,54 @@ int main(int argc, char** argv) {
   // shut it down when the first of them goes away.
   ros::start();
   if (command == "status") {
-    printStatus(collectStatus(timeout > 0 ? timeout : 3.0));
-    return 0;
+    printStatus(collectStatus(r.timeout > 0 ? r.timeout : 3.0));
+    return xpersif::core::kExitOk;
   }
-  if (command == "wait" && !rest.empty()) return waitActive(rest, timeout > 0 ? timeout : 60.0);
-  if ((command == "configure" || command == "activate" || command == "deactivate" || command == "shutdown") &&
-      rest.size() == 1) {
-    return transition(command, rest[0]);
-  }
-  if (command == "contracts" && (rest.size() == 1 || rest.size() == 2)) {
-    return contracts(rest[0], rest.size() == 2 ? rest[1] : "");
-  }
+  if (command == "wait") return waitActive(r.components, r.timeout > 0 ? r.timeout : 60.0);
+  if (command == "contracts") return contracts(r.component, r.contract);
   if (command == "run") {
     ros::AsyncSpinner spinner(1);
     spinner.start();
-    return runLoop(run_goal);
+    return runLoop(r.goal);
   }
-  if ((command == "pause" || command == "resume" || command == "stop" || command == "confirm") && rest.empty()) {
-    return trigger(command);
-  }
-  if (command == "next") return next(rest);
+  if (command == "next") return next(r.experiment);
   if (command == "progress") return progress();
-  std::cerr << "xpersif: cannot understand '" << command << "' with " << rest.size() << " argument(s)\n" << kUsage;
-  return 2;
+  if (command == "pause" || command == "resume" || command == "stop" || command == "confirm") return trigger(command);
+  return transition(command, r.component);  // configure, activate, deactivate, shutdown
+}
+
+}  // namespace
+
+/// The command line with "--" after `next`: its SIDE (-x, +x, -y, +y) and a negative OFFSET are words of the
+/// experiment, not options.
+std::vector<std::string> wordsOf(int argc, char** argv) {
+  std::vector<std::string> words(argv, argv + argc);
+  for (std::size_t i = 1; i < words.size(); ++i) {
+    if (words[i] == "--timeout" || words[i] == "--loop") {
+      ++i;  // its value
+    } else if (words[i].empty() || words[i][0] != '-') {
+      const bool help = i + 1 < words.size() && (words[i + 1] == "-h" || words[i + 1] == "--help");
+      if (words[i] == "next" && !help) words.insert(words.begin() + static_cast<long>(i) + 1, "--");
+      break;  // the command
+    }
+  }
+  return words;
+}
+
+int main(int argc, char** argv) {
+  CLI::App app("The console client of a running XPERSIF system (doc/console.md); check-world and rerun work "
+               "without one.",
+               "xpersif");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("done", "the command failed or the system did not answer") +
+                                    " `run` and `rerun` exit with the run's outcome (0 done).");
+  Request request;
+  addCommands(app, request);
+  if (const auto done = xpersif::tools::parse(app, wordsOf(argc, argv))) return *done;
+  request.command = app.get_subcommands().front();
+  // Arguments are checked before anything talks to ROS: a typo is a usage error whether or not a system runs.
+  if (const int code = checkRequest(request); code != xpersif::core::kExitOk) return code;
+  const std::string command = request.command->get_name();
+  if (command == "check-world") return checkWorld(request.file);
+  if (command == "rerun") return rerun(request.run_dir, request.new_run_dir, request.overrides);
+  return runOnSystem(argc, argv, request);
 }

@@ -30,6 +30,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -41,6 +42,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "xpersif/core/experiment_spec/experiment_spec.h"
@@ -50,6 +52,7 @@
 #include "xpersif/ExperimentProgress.h"
 #include "xpersif/RunLoopAction.h"
 #include "run_driver.h"
+#include "tool_command_line.h"
 
 extern char** environ;
 
@@ -108,22 +111,8 @@ ExperimentSpec load(const std::string& file, const std::vector<std::string>& ove
   return spec;
 }
 
-int check(const std::vector<std::string>& args) {
-  std::string file;
-  std::vector<std::string> overrides, configs;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--components" && i + 1 < args.size()) {
-      configs = split(args[++i], ',');
-    } else if (file.empty()) {
-      file = args[i];
-    } else {
-      overrides.push_back(args[i]);
-    }
-  }
-  if (file.empty()) {
-    std::cerr << "xpersif_experiment: check needs an experiment file\n";
-    return 2;
-  }
+/// `check`: the file (and its world) checked and printed as it will run; exit 2 with one sentence when it is wrong.
+int check(const std::string& file, const std::vector<std::string>& overrides, const std::vector<std::string>& configs) {
   try {
     const ExperimentSpec spec = load(file, overrides, configs);
     std::cout << xpersif::core::experimentToYaml(spec, spec.run_dir);
@@ -527,20 +516,44 @@ class Runner {
   double phases_started_ = 0;  // wall seconds from the start to the first phase (bring-up)
 };
 
+/// Ends the launch without roslaunch's red "REQUIRED process [experiment] has died!" banner, which Debian's
+/// roslaunch prints whenever a required node ends, cleanly or not: when our parent is roslaunch, it is asked to
+/// shut down first (SIGINT, as Ctrl-C does), and this node waits to be stopped by it. The outcome is already in
+/// the status files; a node run by anything else just returns.
+void endLaunchQuietly() {
+  const pid_t parent = getppid();
+  std::ifstream cmdline("/proc/" + std::to_string(parent) + "/cmdline");
+  const std::string command((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
+  if (command.find("roslaunch") == std::string::npos) return;
+  std::signal(SIGINT, SIG_DFL);  // roslaunch's shutdown then ends this process at once
+  std::signal(SIGTERM, SIG_DFL);
+  if (kill(parent, SIGINT) != 0) return;
+  for (int i = 0; i < 300 && getppid() == parent; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 2 && std::string(argv[1]) == "check") return check(std::vector<std::string>(argv + 2, argv + argc));
+  // ROS's own arguments (remappings such as __name:=, which roslaunch adds) are taken out first: what is left is
+  // this tool's command line.
+  std::vector<std::string> words;
+  ros::removeROSArgs(argc, argv, words);
+  CLI::App app("Runs an experiment file from start to end as the one required node of launch/experiment.launch "
+               "(its settings are private parameters); `check` checks a file without ROS (doc/experiments.md).",
+               "xpersif_experiment");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("every phase succeeded and the report was written",
+                                                          "a phase or the report failed, or no ROS master") +
+                                    " A bad experiment file exits 2: nothing started.");
+  std::string file;
+  std::vector<std::string> overrides, configs;
+  auto* check_command = app.add_subcommand("check", "check the file (and its world) and print it as it will run");
+  check_command->add_option("FILE", file, "the experiment file")->required();
+  check_command->add_option("KEY=VALUE", overrides, "keys of the file to change, e.g. seed=3 phases.1.experiments=8");
+  check_command->add_option("--components", configs, "the component configurations the parameters are checked against")
+      ->delimiter(',');
+  if (const auto done = xpersif::tools::parse(app, words)) return *done;
+  if (check_command->parsed()) return check(file, overrides, configs);
   ros::init(argc, argv, "experiment_runner");
-  // As a node it takes its settings as private parameters: anything left after ROS's remappings is a mistake.
-  std::vector<std::string> left;
-  ros::removeROSArgs(argc, argv, left);
-  if (left.size() > 1) {
-    std::cerr << "xpersif_experiment: unexpected argument '" << left[1]
-              << "'; usage: xpersif_experiment check FILE [--components CONFIG,...] [KEY=VALUE...], or as a node "
-                 "with private parameters (launch/experiment.launch)\n";
-    return 2;
-  }
   if (!ros::master::check()) {
     std::cerr << "xpersif_experiment: no ROS master at " << ros::master::getURI()
               << "; run it through `roslaunch xpersif experiment.launch experiment:=FILE`\n";
@@ -555,5 +568,6 @@ int main(int argc, char** argv) {
     code = runner.run();
   }
   ros::shutdown();
+  endLaunchQuietly();
   return code;
 }

@@ -7,48 +7,39 @@
 #include "xpersif/core/common/command_line.h"
 #include "xpersif/traces/bag_tools.h"
 
+#include "tool_command_line.h"
+
 namespace {
 using namespace xpersif::core;
-constexpr int kOk = kExitOk, kBadBag = kExitBadInput, kUsage = kExitUsage, kOutput = kExitOutput;
-
-int usage(const std::string& error) {
-  if (!error.empty()) std::cerr << "xpersif_export: " << error << "\n";
-  std::cerr << "usage: xpersif_export [-o OUT_DIR] [--features] [--no-poses] [--frames REGEX] [--pose-period S]\n"
-               "                      [--experiments-topic T] BAG_OR_RUN_DIR...\n"
-               "writes OUT_DIR/experiments.csv, poses.csv (and features.csv); see doc/traces.md\n"
-               "exit: 0 written, 2 usage, 3 a bag is missing or unreadable (the message names it), 4 output not writable\n";
-  return kUsage;
-}
+constexpr int kOk = kExitOk, kBadBag = kExitBadInput, kOutput = kExitOutput;
 }  // namespace
 
 int main(int argc, char** argv) {
   xpersif::traces::ExportOptions options;
   std::vector<std::string> inputs;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) throw UsageError(std::string(name) + " needs a value");
-      return argv[++i];
-    };
-    try {
-      if (a == "-o" || a == "--out") options.out_dir = value("-o");
-      else if (a == "--features") options.features = true;
-      else if (a == "--no-poses") options.poses = false;
-      else if (a == "--frames") options.frames_regex = value("--frames");
-      else if (a == "--pose-period") options.pose_period = parseRealNumber("--pose-period", value("--pose-period"), 0, 1e9);
-      else if (a == "--experiments-topic") options.experiments_topic = value("--experiments-topic");
-      else if (a == "-h" || a == "--help") return usage(""), kOk;
-      else if (!a.empty() && a[0] == '-') return usage("unknown option " + a);
-      else inputs.push_back(a);
-    } catch (const std::exception& e) {
-      return usage(e.what());
-    }
-  }
-  if (inputs.empty()) return usage("give at least one bag or run directory");
+  CLI::App app("XPERSIF traces (bags) to CSV tables: OUT_DIR/experiments.csv, poses.csv (and features.csv); "
+               "see doc/traces.md",
+               "xpersif_export");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("written", "an unexpected error") +
+                                    " A bag that is missing or unreadable is named.");
+  app.add_option("-o,--out", options.out_dir, "where the CSV files go")->capture_default_str();
+  app.add_flag("--features", options.features, "also features.csv: every object's features per frame");
+  app.add_flag_callback("--no-poses", [&options] { options.poses = false; }, "no poses.csv");
+  app.add_option("--frames", options.frames_regex, "the tf frames of poses.csv, a regular expression")
+      ->capture_default_str();
+  app.add_option("--pose-period", options.pose_period, "seconds of simulated time between pose rows (0: every one)")
+      ->check(xpersif::tools::finiteNumber(0, 1e9))
+      ->capture_default_str();
+  app.add_option("--experiments-topic", options.experiments_topic, "the topic of the experiment records")
+      ->capture_default_str();
+  app.add_option("BAG_OR_RUN_DIR", inputs, "bags, or run directories whose bags are read")->required();
+  if (const auto done = xpersif::tools::parse(app, argc, argv)) return *done;
   try {
     std::regex check(options.frames_regex);
   } catch (const std::regex_error& e) {
-    return usage("--frames '" + options.frames_regex + "' is not a regular expression: " + e.what());
+    std::cerr << "xpersif_export: --frames '" << options.frames_regex << "' is not a regular expression: " << e.what()
+              << "\n" << app.help();
+    return kExitUsage;
   }
   for (const auto& input : inputs) {
     std::error_code ec;

@@ -14,6 +14,7 @@
 
 #include "xpersif/core/common/command_line.h"
 #include "parameter_catalogue.h"
+#include "tool_command_line.h"
 
 namespace {
 
@@ -93,16 +94,21 @@ int write(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<std::string> args(argv + 1, argv + argc);
+  std::string check_file, write_file;
+  CLI::App app("The parameter reference (Markdown), generated from every component's declared parameters: printed, "
+               "checked against a file's reference (between its markers), or written into it.",
+               "xpersif_parameters");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("printed, matching or written",
+                                                          "the file's reference differs from the declarations") +
+                                    " A file without the markers exits 3.");
+  auto* check_option = app.add_option("--check", check_file, "exit 0 when FILE's reference is the generated one");
+  app.add_option("--write", write_file, "replace FILE's reference with the generated one")->excludes(check_option);
+  if (const auto done = xpersif::tools::parse(app, argc, argv)) return *done;
   try {
-    if (args.empty()) {
-      std::cout << reference();
-      return core::kExitOk;
-    }
-    if (args.size() == 2 && args[0] == "--check") return check(args[1]);
-    if (args.size() == 2 && args[0] == "--write") return write(args[1]);
-    std::cerr << "usage: xpersif_parameters [--check FILE | --write FILE]\n";
-    return core::kExitUsage;
+    if (!check_file.empty()) return check(check_file);
+    if (!write_file.empty()) return write(write_file);
+    std::cout << reference();
+    return core::kExitOk;
   } catch (const BadInput& e) {
     std::cerr << "xpersif_parameters: " << e.what() << "\n";
     return core::kExitBadInput;

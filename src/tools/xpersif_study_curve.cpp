@@ -11,15 +11,18 @@
 // DIR/curve.csv (experiments,error). `--learner per_object` trains one model per object instead, each on that
 // object's pushes alone (core::LearnerScope; bench/loop.md compares the two on a study's knowledge bases). DIR/notions.csv gets the run's notions (subject,predicate,confidence,
 // support,text), DIR/experiments.csv every designed experiment of the run in order (seq,object,side,offset,
-// distance,status,surprise). Exit 0, or 1 with one sentence (a missing run, an empty evaluation set).
+// distance,status,surprise). Exit codes: --help.
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <sstream>
 
+#include "xpersif/core/common/command_line.h"
 #include "xpersif/core/evaluation/evaluation.h"
+#include "tool_command_line.h"
 
 using namespace xpersif::core;
 
@@ -46,30 +49,39 @@ int main(int argc, char** argv) {
   std::string evaluation_database, evaluation_run = "evaluation", database, run_name, out;
   int every = 1;
   std::string learner = "shared";
-  for (int i = 1; i < argc; i += 2) {
-    const std::string key = argv[i];
-    if (i + 1 >= argc) {
-      std::cerr << "xpersif_study_curve: " << key << " needs a value\n";
-      return 2;
-    }
-    const std::string value = argv[i + 1];
-    if (key == "--evaluation-database") evaluation_database = value;
-    else if (key == "--evaluation-run") evaluation_run = value;
-    else if (key == "--database") database = value;
-    else if (key == "--run") run_name = value;
-    else if (key == "--out") out = value;
-    else if (key == "--every") every = std::atoi(value.c_str());
-    else if (key == "--learner") learner = value;
-    else {
-      std::cerr << "xpersif_study_curve: unknown option " << key << "\n";
-      return 2;
+  CLI::App app("One study cell's learning curve on the study's evaluation set, from the knowledge bases alone "
+               "(scripts/study.py calls it for every finished cell): DIR/curve.csv, notions.csv, experiments.csv.",
+               "xpersif_study_curve");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("written", "a run is missing or the evaluation set is empty"));
+  app.add_option("--evaluation-database", evaluation_database, "the knowledge base holding the evaluation run")
+      ->required();
+  app.add_option("--evaluation-run", evaluation_run, "the evaluation run's name")->capture_default_str();
+  app.add_option("--database", database, "the cell's knowledge base")->required();
+  app.add_option("--run", run_name, "the cell's run")->required();
+  app.add_option("--out", out, "where the CSV files go")->required();
+  app.add_option("--every", every, "a point every K experiments (and the last)")
+      ->check(xpersif::tools::wholeNumber(1, 1000000))
+      ->capture_default_str();
+  app.add_option("--learner", learner, "one model for every object, or one per object")
+      ->check(CLI::IsMember({"shared", "per_object"}))
+      ->capture_default_str();
+  if (const auto done = xpersif::tools::parse(app, argc, argv)) return *done;
+  // Never create a knowledge base where none is (KnowledgeBase::open would).
+  for (const auto* path : {&evaluation_database, &database}) {
+    if (const std::string why = checkReadableFile("knowledge base", *path); !why.empty()) {
+      std::cerr << "xpersif_study_curve: " << why << "\n";
+      return kExitBadInput;
     }
   }
-  if (evaluation_database.empty() || database.empty() || run_name.empty() || out.empty() || every < 1 ||
-      (learner != "shared" && learner != "per_object")) {
-    std::cerr << "usage: xpersif_study_curve --evaluation-database FILE [--evaluation-run NAME] --database FILE "
-                 "--run NAME --out DIR [--every K >= 1] [--learner shared|per_object]\n";
-    return 2;
+  if (const std::string why = checkWritableDirectory("output directory", out); !why.empty()) {
+    std::cerr << "xpersif_study_curve: " << why << "\n";
+    return kExitOutput;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) {
+    std::cerr << "xpersif_study_curve: output directory " << out << " cannot be created: " << ec.message() << "\n";
+    return kExitOutput;
   }
   try {
     auto eval_kb = KnowledgeBase::open(evaluation_database);
@@ -111,9 +123,12 @@ int main(int argc, char** argv) {
     if (!csv || !notions || !experiments) throw std::runtime_error("cannot write into " + out);
     std::cout << run_name << ": " << training.size() << " experiments learned, " << evaluation.size()
               << " evaluation pushes, final error " << curve.error.back() << " m\n";
+  } catch (const KnowledgeBaseError& e) {
+    std::cerr << "xpersif_study_curve: " << e.what() << "\n";
+    return kExitBadInput;
   } catch (const std::exception& e) {
     std::cerr << "xpersif_study_curve: " << e.what() << "\n";
-    return 1;
+    return kExitFailed;
   }
-  return 0;
+  return kExitOk;
 }

@@ -7,6 +7,7 @@
 
 #include "xpersif/core/common/command_line.h"
 #include "xpersif/traces/offline_learning.h"
+#include "tool_command_line.h"
 
 namespace {
 
@@ -20,16 +21,6 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
-const char* kUsageText =
-    "usage: xpersif_train_offline [-o MODEL.yaml] [--features hue,size] [--one-hot id1,id2] [--seed N]\n"
-    "                             [--run RUN_ID] BAG_OR_RUN_DIR...\n"
-    "exit: 0 trained, 2 usage or bad config, 3 a bag is missing or unreadable, 4 output not writable\n";
-
-int usage(const std::string& error) {
-  std::cerr << "xpersif_train_offline: " << error << "\n" << kUsageText;
-  return kExitUsage;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -37,37 +28,26 @@ int main(int argc, char** argv) {
   std::string out;
   std::uint64_t run_id = 0;
   std::vector<std::string> inputs;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw UsageError(a + " needs a value");
-        return argv[++i];
-      };
-      if (a == "-h" || a == "--help") {
-        std::cout << kUsageText;
-        return kExitOk;
-      } else if (a == "-o") {
-        out = value();
-      } else if (a == "--features") {
-        config.feature_names = split(value());
-      } else if (a == "--one-hot") {
+  CLI::App app("MACHINELEARNING's learner trained offline from recorded bags, as it would have learned live "
+               "(doc/traces.md).",
+               "xpersif_train_offline");
+  xpersif::tools::describe(app, xpersif::tools::exitCodes("trained") + " A bad learner configuration exits 2.");
+  app.add_option("-o", out, "write the trained model here (YAML)");
+  app.add_option_function<std::string>(
+      "--features", [&config](const std::string& v) { config.feature_names = split(v); },
+      "the object features learned from, comma-separated (e.g. hue,size)");
+  app.add_option_function<std::string>(
+      "--one-hot",
+      [&config](const std::string& v) {
         config.one_hot_identity = true;
-        config.identities = split(value());
-      } else if (a == "--seed") {
-        config.seed = parseWholeNumber("--seed", value());
-      } else if (a == "--run") {
-        run_id = parseWholeNumber("--run", value(), 0, INT64_MAX);
-      } else if (!a.empty() && a[0] == '-') {
-        throw UsageError("unknown option " + a);
-      } else {
-        inputs.push_back(a);
-      }
-    }
-  } catch (const UsageError& e) {
-    return usage(e.what());
-  }
-  if (inputs.empty()) return usage("give at least one bag or run directory");
+        config.identities = split(v);
+      },
+      "learn the objects' identities one-hot, in this order (comma-separated)");
+  app.add_option("--seed", config.seed, "the learner's seed")->check(xpersif::tools::wholeNumber());
+  app.add_option("--run", run_id, "only this run's experiments (0: every run)")
+      ->check(xpersif::tools::wholeNumber(0, INT64_MAX));
+  app.add_option("BAG_OR_RUN_DIR", inputs, "bags, or run directories whose bags are read")->required();
+  if (const auto done = xpersif::tools::parse(app, argc, argv)) return *done;
   for (const auto& input : inputs) {
     std::error_code ec;
     if (!std::filesystem::is_directory(input, ec)) {
@@ -90,7 +70,8 @@ int main(int argc, char** argv) {
   try {
     learner = std::make_unique<PushLearner>(config);
   } catch (const std::exception& e) {
-    return usage(std::string("bad learner configuration: ") + e.what());
+    std::cerr << "xpersif_train_offline: bad learner configuration: " << e.what() << "\n" << app.help();
+    return kExitUsage;
   }
   try {
     const auto files = xpersif::traces::bagFiles(inputs);
