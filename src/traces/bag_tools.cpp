@@ -300,25 +300,23 @@ std::vector<RecordedExperiment> readExperimentRecords(const std::vector<std::str
   return out;
 }
 
-ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptions& options) {
-  ExportSummary summary;
-  summary.bags = files.size();
-  std::error_code ec;
-  if (!fs::is_directory(options.out_dir, ec)) {
-    throw OutputError("output directory '" + options.out_dir + "' does not exist");
-  }
-  const std::regex frames(options.frames_regex);  // throws std::regex_error
+namespace {
 
-  // ---- experiments.csv: records are few; keep them to know every extra feature name first ----
-  const auto records = readExperimentRecords(files, options.experiments_topic);
-  std::set<std::string> extra_names;
+// ---- experiments.csv: records are few; they are read first to know every extra feature name ----
+
+/// The extra feature names of the pushed object, before and after, over every record: a column each.
+std::set<std::string> pushedObjectFeatureNames(const std::vector<RecordedExperiment>& records) {
+  std::set<std::string> names;
   for (const auto& r : records) {
     for (const auto* v : {&r.record.before, &r.record.after}) {
       if (const auto* o = findObject(*v, r.record.experiment.object))
-        extra_names.insert(o->feature_names.begin(), o->feature_names.end());
+        names.insert(o->feature_names.begin(), o->feature_names.end());
     }
   }
-  CsvFile experiments(options.out_dir, "experiments.csv");
+  return names;
+}
+
+std::vector<std::string> experimentsHeader(const std::set<std::string>& extra_names) {
   std::vector<std::string> header{"bag", "time", "run_id", "seq", "id", "design", "object", "side", "offset",
                                   "distance", "status", "reason", "before_stamp", "before_x", "before_y",
                                   "before_yaw"};
@@ -328,103 +326,150 @@ ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptio
   for (const char* c : {"dx", "dy", "dyaw", "predicted_dx", "predicted_dy", "predicted_dyaw", "predicted_std_dx",
                         "predicted_std_dy", "predicted_std_dyaw", "surprise", "started", "finished"})
     header.push_back(c);
-  experiments.row(header);
-  for (const auto& e : records) {
-    const auto& r = e.record;
-    std::vector<std::string> row{field(fs::path(e.bag).filename().string()), num(e.time), std::to_string(r.run_id),
-                                 std::to_string(r.seq), std::to_string(r.id), field(r.design),
-                                 field(r.experiment.object), field(r.experiment.side), num(r.experiment.offset),
-                                 num(r.experiment.distance), field(r.status), field(r.reason)};
-    for (const auto* v : {&r.before, &r.after}) {
-      const auto* o = findObject(*v, r.experiment.object);
-      row.push_back(num(v->header.stamp.toSec()));
-      row.push_back(o ? num(o->position.x) : "");
-      row.push_back(o ? num(o->position.y) : "");
-      row.push_back(o ? num(o->yaw) : "");
-      for (const auto& n : extra_names) row.push_back(extraOf(o, n));
-    }
-    const bool done = r.status == "done";
-    for (double v : {r.dx, r.dy, r.dyaw}) row.push_back(done ? num(v) : "");
-    const bool predicted = r.predicted_mean.size() == 3 && r.predicted_std.size() == 3;
-    for (int i = 0; i < 3; ++i) row.push_back(predicted ? num(r.predicted_mean[i]) : "");
-    for (int i = 0; i < 3; ++i) row.push_back(predicted ? num(r.predicted_std[i]) : "");
-    row.push_back(predicted && done ? num(r.surprise) : "");
-    row.push_back(num(r.started));
-    row.push_back(num(r.finished));
-    experiments.row(row);
+  return header;
+}
+
+std::vector<std::string> experimentRow(const RecordedExperiment& e, const std::set<std::string>& extra_names) {
+  const auto& r = e.record;
+  std::vector<std::string> row{field(fs::path(e.bag).filename().string()), num(e.time), std::to_string(r.run_id),
+                               std::to_string(r.seq), std::to_string(r.id), field(r.design),
+                               field(r.experiment.object), field(r.experiment.side), num(r.experiment.offset),
+                               num(r.experiment.distance), field(r.status), field(r.reason)};
+  for (const auto* v : {&r.before, &r.after}) {
+    const auto* o = findObject(*v, r.experiment.object);
+    row.push_back(num(v->header.stamp.toSec()));
+    row.push_back(o ? num(o->position.x) : "");
+    row.push_back(o ? num(o->position.y) : "");
+    row.push_back(o ? num(o->yaw) : "");
+    for (const auto& n : extra_names) row.push_back(extraOf(o, n));
   }
+  const bool done = r.status == "done";
+  for (double v : {r.dx, r.dy, r.dyaw}) row.push_back(done ? num(v) : "");
+  const bool predicted = r.predicted_mean.size() == 3 && r.predicted_std.size() == 3;
+  for (int i = 0; i < 3; ++i) row.push_back(predicted ? num(r.predicted_mean[i]) : "");
+  for (int i = 0; i < 3; ++i) row.push_back(predicted ? num(r.predicted_std[i]) : "");
+  row.push_back(predicted && done ? num(r.surprise) : "");
+  row.push_back(num(r.started));
+  row.push_back(num(r.finished));
+  return row;
+}
+
+// ---- poses.csv: streamed ----
+
+/// The transforms of /tf and /tf_static whose child frame matches @p frames, at most one per frame per
+/// pose_period; the number of rows.
+std::size_t writePoses(const std::vector<std::string>& files, const ExportOptions& options, const std::regex& frames,
+                       CsvFile& poses) {
+  std::size_t rows = 0;
+  poses.row({"time", "frame", "parent", "x", "y", "z", "yaw", "static"});
+  std::map<std::string, double> last;
+  forEachMessage(files, {"/tf", "/tf_static"}, [&](const std::string& path, const rosbag::MessageInstance& m) {
+    auto msg = instantiate<tf2_msgs::TFMessage>(m, path);
+    const bool is_static = m.getTopic() == "/tf_static";
+    for (const auto& t : msg->transforms) {
+      if (!std::regex_match(t.child_frame_id, frames)) continue;
+      const double time = t.header.stamp.toSec();
+      if (options.pose_period > 0 && !is_static) {
+        auto it = last.find(t.child_frame_id);
+        if (it != last.end() && time - it->second < options.pose_period - 1e-6 && time >= it->second) continue;
+        last[t.child_frame_id] = time;
+      }
+      const auto& p = t.transform.translation;
+      const auto& q = t.transform.rotation;
+      poses.row({num(time), field(t.child_frame_id), field(t.header.frame_id), num(p.x), num(p.y), num(p.z),
+                 num(yawOf(q.x, q.y, q.z, q.w)), is_static ? "1" : "0"});
+      ++rows;
+    }
+  });
+  return rows;
+}
+
+// ---- features.csv: one row per object per feature vector; extra features as columns ----
+
+struct FeatureRow {
+  std::vector<std::string> fixed;
+  std::map<std::string, double> extra;
+};
+
+struct FeatureTable {
+  std::vector<FeatureRow> rows;
+  std::set<std::string> names;  ///< every extra feature's name
+};
+
+/// Every object (and the robot, when found) of every feature vector on @p topics; read whole before writing,
+/// since the columns are known only at the end.
+FeatureTable readFeatureTable(const std::vector<std::string>& files, const std::vector<std::string>& topics) {
+  FeatureTable table;
+  forEachMessage(files, topics, [&](const std::string& path, const rosbag::MessageInstance& m) {
+    auto v = instantiate<xpersif::FeatureVector>(m, path);
+    const std::string stamp = num(v->header.stamp.toSec()), time = num(m.getTime().toSec());
+    for (const auto& o : v->objects) {
+      FeatureRow row;
+      row.fixed = {time, field(m.getTopic()), stamp, field(v->source), field(o.name), num(o.position.x),
+                   num(o.position.y), num(o.position.z), num(o.yaw), o.orientation_known ? "1" : "0",
+                   num(o.confidence), num(o.pixel_area)};
+      for (std::size_t i = 0; i < o.feature_names.size() && i < o.feature_values.size(); ++i) {
+        row.extra[o.feature_names[i]] = o.feature_values[i];
+        table.names.insert(o.feature_names[i]);
+      }
+      table.rows.push_back(std::move(row));
+    }
+    if (v->robot_found) {
+      table.rows.push_back({{time, field(m.getTopic()), stamp, field(v->source), "robot", num(v->robot.x),
+                             num(v->robot.y), "", num(v->robot.theta), "1", "", ""},
+                            {}});
+    }
+  });
+  return table;
+}
+
+void writeFeatures(FeatureTable& table, CsvFile& features) {
+  std::vector<std::string> h{"time", "topic", "stamp", "source", "object", "x", "y", "z", "yaw",
+                             "orientation_known", "confidence", "pixel_area"};
+  for (const auto& n : table.names) h.push_back("feature_" + n);  // VISION's own x, y would collide with the pose
+  features.row(h);
+  for (auto& r : table.rows) {
+    for (const auto& n : table.names) {
+      auto it = r.extra.find(n);
+      r.fixed.push_back(it == r.extra.end() ? "" : num(it->second));
+    }
+    features.row(r.fixed);
+  }
+}
+
+}  // namespace
+
+ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptions& options) {
+  ExportSummary summary;
+  summary.bags = files.size();
+  std::error_code ec;
+  if (!fs::is_directory(options.out_dir, ec)) {
+    throw OutputError("output directory '" + options.out_dir + "' does not exist");
+  }
+  const std::regex frames(options.frames_regex);  // throws std::regex_error
+
+  const auto records = readExperimentRecords(files, options.experiments_topic);
+  const std::set<std::string> extra_names = pushedObjectFeatureNames(records);
+  CsvFile experiments(options.out_dir, "experiments.csv");
+  experiments.row(experimentsHeader(extra_names));
+  for (const auto& e : records) experiments.row(experimentRow(e, extra_names));
   summary.experiments = records.size();
 
-  // ---- poses.csv: streamed ----
   std::unique_ptr<CsvFile> poses;
   if (options.poses) {
     poses = std::make_unique<CsvFile>(options.out_dir, "poses.csv");
-    poses->row({"time", "frame", "parent", "x", "y", "z", "yaw", "static"});
-    std::map<std::string, double> last;
-    forEachMessage(files, {"/tf", "/tf_static"}, [&](const std::string& path, const rosbag::MessageInstance& m) {
-      auto msg = instantiate<tf2_msgs::TFMessage>(m, path);
-      const bool is_static = m.getTopic() == "/tf_static";
-      for (const auto& t : msg->transforms) {
-        if (!std::regex_match(t.child_frame_id, frames)) continue;
-        const double time = t.header.stamp.toSec();
-        if (options.pose_period > 0 && !is_static) {
-          auto it = last.find(t.child_frame_id);
-          if (it != last.end() && time - it->second < options.pose_period - 1e-6 && time >= it->second) continue;
-          last[t.child_frame_id] = time;
-        }
-        const auto& p = t.transform.translation;
-        const auto& q = t.transform.rotation;
-        poses->row({num(time), field(t.child_frame_id), field(t.header.frame_id), num(p.x), num(p.y), num(p.z),
-                    num(yawOf(q.x, q.y, q.z, q.w)), is_static ? "1" : "0"});
-        ++summary.poses;
-      }
-    });
+    summary.poses = writePoses(files, options, frames, *poses);
   }
 
-  // ---- features.csv: one row per object per feature vector; extra features as columns ----
   std::unique_ptr<CsvFile> features;
   if (options.features) {
-    struct Row {
-      std::vector<std::string> fixed;
-      std::map<std::string, double> extra;
-    };
-    std::vector<Row> rows;
-    std::set<std::string> names;
-    forEachMessage(files, options.feature_topics, [&](const std::string& path, const rosbag::MessageInstance& m) {
-      auto v = instantiate<xpersif::FeatureVector>(m, path);
-      const std::string stamp = num(v->header.stamp.toSec()), time = num(m.getTime().toSec());
-      for (const auto& o : v->objects) {
-        Row row;
-        row.fixed = {time, field(m.getTopic()), stamp, field(v->source), field(o.name), num(o.position.x),
-                     num(o.position.y), num(o.position.z), num(o.yaw), o.orientation_known ? "1" : "0",
-                     num(o.confidence), num(o.pixel_area)};
-        for (std::size_t i = 0; i < o.feature_names.size() && i < o.feature_values.size(); ++i) {
-          row.extra[o.feature_names[i]] = o.feature_values[i];
-          names.insert(o.feature_names[i]);
-        }
-        rows.push_back(std::move(row));
-      }
-      if (v->robot_found) {
-        rows.push_back({{time, field(m.getTopic()), stamp, field(v->source), "robot", num(v->robot.x), num(v->robot.y),
-                         "", num(v->robot.theta), "1", "", ""},
-                        {}});
-      }
-    });
+    FeatureTable table = readFeatureTable(files, options.feature_topics);
     features = std::make_unique<CsvFile>(options.out_dir, "features.csv");
-    std::vector<std::string> h{"time", "topic", "stamp", "source", "object", "x", "y", "z", "yaw",
-                               "orientation_known", "confidence", "pixel_area"};
-    for (const auto& n : names) h.push_back("feature_" + n);  // VISION's own x, y would collide with the pose
-    features->row(h);
-    for (auto& r : rows) {
-      for (const auto& n : names) {
-        auto it = r.extra.find(n);
-        r.fixed.push_back(it == r.extra.end() ? "" : num(it->second));
-      }
-      features->row(r.fixed);
-    }
-    summary.features = rows.size();
+    writeFeatures(table, *features);
+    summary.features = table.rows.size();
   }
 
+  // Renamed only now: a failure above leaves no half table behind.
   summary.files_written.push_back(experiments.commit());
   if (poses) summary.files_written.push_back(poses->commit());
   if (features) summary.files_written.push_back(features->commit());

@@ -1,16 +1,19 @@
 /**
  * @file web_bridge.h
  * @brief WEBBRIDGE (issue 18): the running system in a web browser. One WebSocket and HTTP server
- *        (websocketpp on Boost.Asio, one network thread) serves the page (`http://ADDRESS:PORT/`, web/) and, per
- *        client, the scene once, then XPERSim's frames (every dynamic node's pose, binary) at the rate the client
- *        asks for, and the loop's state (LOOPMODEL's progress, the experiment runner's progress, MOTIVATION,
- *        MACHINELEARNING's notions, the learning curve from the knowledge base's experiments) as it changes.
+ *        (core::WebServer, ROS-free: websocketpp on Boost.Asio, one network thread) serves the page
+ *        (`http://ADDRESS:PORT/`, web/) and, per client, the scene once, then XPERSim's frames (every dynamic
+ *        node's pose, binary) at the rate the client asks for, and the loop's state (LOOPMODEL's progress, the
+ *        experiment runner's progress, MOTIVATION, MACHINELEARNING's notions, the learning curve from the
+ *        knowledge base's experiments) as it changes.
  *
  * Per client a core::WebClientQueue keeps only the newest message per kind (the newest frame: a slow client
  * loses old frames, never gets a backlog), paces frames at its rate, and stops handing out messages while its
  * socket holds `~send_window` bytes; a client whose socket does not drain for `~stall_timeout` s is
  * disconnected. So a client's memory is bounded whatever it does. Client messages (JSON, see core/web_stream.h)
  * that are binary, oversized, malformed or unexpected close the connection with a close code and a log line.
+ * This class only turns topics into the page's messages (core::WebServer::publish) and a client's command into
+ * a LOOPMODEL service call; the page's protocol is core::WebStreamProtocol.
  *
  * Read-only by default: it only listens to topics. With `~allow_commands` and a `~token`, a client may call
  * LOOPMODEL's pause, resume and confirm (the console client's sliding-autonomy operations).

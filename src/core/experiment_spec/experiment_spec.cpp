@@ -279,9 +279,10 @@ std::optional<ParameterSpec::Value> valueAs(const ParameterSpec& spec, const YAM
 }
 }  // namespace
 
-ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Override>& overrides,
-                                  const std::vector<std::string>& known_components,
-                                  const std::map<std::string, const ParameterTable*>& declared) {
+namespace {
+
+/// The file as YAML, a mapping, with the overrides applied.
+YAML::Node readRoot(const std::string& path, const std::vector<Override>& overrides) {
   std::error_code error;
   if (!fs::is_regular_file(path, error)) {
     throw ExperimentFileError(path + ": no such experiment file");
@@ -293,7 +294,6 @@ ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Ove
     throw ExperimentFileError(path + ": not valid YAML: " + e.msg +
                               (e.mark.is_null() ? "" : " (line " + std::to_string(e.mark.line + 1) + ")"));
   }
-  const Reader r(path);
   if (!root.IsMap()) throw ExperimentFileError(path + ": must be a mapping of keys (world, phases, ...) to values");
   for (const auto& o : overrides) {
     try {
@@ -302,10 +302,11 @@ ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Ove
       throw ExperimentFileError(path + ": override " + o.key + "=" + o.value + ": " + e.msg);
     }
   }
-  r.requireKnownKeys(root, "", kTopKeys);
+  return root;
+}
 
-  ExperimentSpec spec;
-  spec.file = path;
+/// name, world, robot, seed, clock, run_dir and recording.
+void readSettings(const Reader& r, const YAML::Node& root, const std::string& path, ExperimentSpec& spec) {
   spec.name = root["name"] ? r.identifier(root["name"], "name") : fs::path(path).stem().string();
   if (!root["world"]) throw ExperimentFileError(path + ": world is missing; name the world file (see worlds/)");
   spec.world = r.existingFile(root["world"], "world");
@@ -322,84 +323,116 @@ ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Ove
       spec.recording.compression = r.oneOf(recording["compression"], "recording.compression", kCompressions);
     }
   }
+}
 
+/// Entry @p key of phases; @p names holds the names of the phases before it, and gets this one's.
+PhaseSpec readPhase(const Reader& r, const YAML::Node& p, const std::string& key, std::int64_t seed,
+                    std::set<std::string>& names) {
+  r.requireMap(p, key);
+  if (!p["kind"]) r.fail(key + ".kind", "is missing; it must be one of " + joined(kKinds), p);
+  PhaseSpec phase;
+  phase.kind = r.oneOf(p["kind"], key + ".kind", kKinds);
+  r.requireKnownKeys(p, key + ".", kPhaseKeys.at(phase.kind));
+  if (!p["name"]) r.fail(key + ".name", "is missing; every phase is a run with a name", p);
+  phase.name = r.identifier(p["name"], key + ".name");
+  if (!names.insert(phase.name).second) r.fail(key + ".name", "'" + phase.name + "' is used twice", p["name"]);
+  phase.design = "random";
+  if (phase.kind == "experimentation") {
+    if (!p["design"]) r.fail(key + ".design", "is missing; it must be one of " + joined(kDesigns), p);
+    phase.design = r.oneOf(p["design"], key + ".design", kDesigns);
+  } else if (phase.kind == "goal_directed") {
+    phase.design = "curiosity";  // stored with the run; goals are designed by GOALDESIGN whatever it says
+  }
+  if (phase.kind != "goal_directed") {
+    if (!p["experiments"]) r.fail(key + ".experiments", "is missing", p);
+    phase.experiments = static_cast<std::uint32_t>(r.integer(p["experiments"], key + ".experiments", 1, kMaxExperiments));
+  }
+  if (phase.kind == "goal_directed") {
+    if (!p["goals"]) r.fail(key + ".goals", "is missing", p);
+    phase.goals = static_cast<std::uint32_t>(r.integer(p["goals"], key + ".goals", 1, kMaxGoals));
+  } else if (p["goals"]) {
+    phase.goals = static_cast<std::uint32_t>(r.integer(p["goals"], key + ".goals", 0, kMaxGoals));
+  }
+  if (p["seed_offset"]) phase.seed_offset = r.integer(p["seed_offset"], key + ".seed_offset", 0, kMaxSeed);
+  if (seed + phase.seed_offset > kMaxSeed) {
+    r.fail(key + ".seed_offset", "makes the run's seed " + std::to_string(seed + phase.seed_offset) +
+                                     ", above " + std::to_string(kMaxSeed), p);
+  }
+  return phase;
+}
+
+void readPhases(const Reader& r, const YAML::Node& root, const std::string& path, ExperimentSpec& spec) {
   const YAML::Node phases = root["phases"];
   if (!phases) throw ExperimentFileError(path + ": phases is missing; list at least one phase");
   if (!phases.IsSequence() || phases.size() == 0) r.fail("phases", "must be a non-empty list of phases", phases);
   std::set<std::string> names;
   for (std::size_t i = 0; i < phases.size(); ++i) {
-    const YAML::Node p = phases[i];
-    const std::string key = "phases[" + std::to_string(i) + "]";
-    r.requireMap(p, key);
-    if (!p["kind"]) r.fail(key + ".kind", "is missing; it must be one of " + joined(kKinds), p);
-    PhaseSpec phase;
-    phase.kind = r.oneOf(p["kind"], key + ".kind", kKinds);
-    r.requireKnownKeys(p, key + ".", kPhaseKeys.at(phase.kind));
-    if (!p["name"]) r.fail(key + ".name", "is missing; every phase is a run with a name", p);
-    phase.name = r.identifier(p["name"], key + ".name");
-    if (!names.insert(phase.name).second) r.fail(key + ".name", "'" + phase.name + "' is used twice", p["name"]);
-    phase.design = "random";
-    if (phase.kind == "experimentation") {
-      if (!p["design"]) r.fail(key + ".design", "is missing; it must be one of " + joined(kDesigns), p);
-      phase.design = r.oneOf(p["design"], key + ".design", kDesigns);
-    } else if (phase.kind == "goal_directed") {
-      phase.design = "curiosity";  // stored with the run; goals are designed by GOALDESIGN whatever it says
-    }
-    if (phase.kind != "goal_directed") {
-      if (!p["experiments"]) r.fail(key + ".experiments", "is missing", p);
-      phase.experiments = static_cast<std::uint32_t>(r.integer(p["experiments"], key + ".experiments", 1, kMaxExperiments));
-    }
-    if (phase.kind == "goal_directed") {
-      if (!p["goals"]) r.fail(key + ".goals", "is missing", p);
-      phase.goals = static_cast<std::uint32_t>(r.integer(p["goals"], key + ".goals", 1, kMaxGoals));
-    } else if (p["goals"]) {
-      phase.goals = static_cast<std::uint32_t>(r.integer(p["goals"], key + ".goals", 0, kMaxGoals));
-    }
-    if (p["seed_offset"]) phase.seed_offset = r.integer(p["seed_offset"], key + ".seed_offset", 0, kMaxSeed);
-    if (spec.seed + phase.seed_offset > kMaxSeed) {
-      r.fail(key + ".seed_offset", "makes the run's seed " + std::to_string(spec.seed + phase.seed_offset) +
-                                       ", above " + std::to_string(kMaxSeed), p);
-    }
-    spec.phases.push_back(phase);
+    spec.phases.push_back(readPhase(r, phases[i], "phases[" + std::to_string(i) + "]", spec.seed, names));
   }
+}
 
-  if (const YAML::Node parameters = root["parameters"]) {
-    if (!parameters.IsNull()) {
-      r.requireMap(parameters, "parameters");
-      for (const auto& entry : parameters) {
-        const std::string component = entry.first.Scalar();
-        const std::string key = "parameters." + component;
-        if (!known_components.empty() &&
-            std::find(known_components.begin(), known_components.end(), component) == known_components.end()) {
-          throw ExperimentFileError(path + ": unknown component '" + component + "' under parameters" + at(entry.first) +
-                                    "; the components are " + joined(known_components));
-        }
-        r.identifier(entry.first, key);
-        r.requireMap(entry.second, key);
-        const auto table = declared.find(component);
-        for (const auto& value : entry.second) {
-          const std::string name = value.first.Scalar(), where = key + "." + name;
-          r.identifier(value.first, where);
-          if (value.second.IsNull()) r.fail(where, "has no value", value.second);
-          if (table == declared.end() || !table->second) continue;
-          const ParameterTable& parameters = *table->second;
-          const ParameterSpec* spec = parameters.find(name);
-          if (!spec) {
-            r.fail(where, "is not a parameter of " + component + ": " + parameters.undeclared({name}).front() +
-                              " is not declared (doc/parameters.md)", value.first);
-          }
-          if (spec->set_by_component) r.fail(where, "is set by " + component + " itself, not read", value.first);
-          const auto typed = valueAs(*spec, value.second);
-          if (!typed) r.fail(where, "must be of type " + spec->typeName() + " (" + spec->meaning + ")", value.second);
-          const std::string why = checkParameter(*spec, *typed, where);
-          if (!why.empty()) throw ExperimentFileError(path + ": " + why + at(value.second));
-        }
-        YAML::Emitter out;
-        out << YAML::Flow << entry.second;
-        spec.parameters[component] = out.c_str();
-      }
-    }
+/// The value @p value of parameters.COMPONENT.NAME (at @p where), checked against @p parameters, the
+/// component's declaration, when it has one.
+void checkParameterValue(const Reader& r, const std::string& path, const std::string& component,
+                         const std::string& where, const std::pair<YAML::Node, YAML::Node>& value,
+                         const ParameterTable* parameters) {
+  const std::string name = value.first.Scalar();
+  r.identifier(value.first, where);
+  if (value.second.IsNull()) r.fail(where, "has no value", value.second);
+  if (!parameters) return;
+  const ParameterSpec* spec = parameters->find(name);
+  if (!spec) {
+    r.fail(where, "is not a parameter of " + component + ": " + parameters->undeclared({name}).front() +
+                      " is not declared (doc/parameters.md)", value.first);
   }
+  if (spec->set_by_component) r.fail(where, "is set by " + component + " itself, not read", value.first);
+  const auto typed = valueAs(*spec, value.second);
+  if (!typed) r.fail(where, "must be of type " + spec->typeName() + " (" + spec->meaning + ")", value.second);
+  const std::string why = checkParameter(*spec, *typed, where);
+  if (!why.empty()) throw ExperimentFileError(path + ": " + why + at(value.second));
+}
+
+/// parameters: per component, its values (checked) as one line of flow YAML.
+void readParameters(const Reader& r, const YAML::Node& root, const std::string& path,
+                    const std::vector<std::string>& known_components,
+                    const std::map<std::string, const ParameterTable*>& declared, ExperimentSpec& spec) {
+  const YAML::Node parameters = root["parameters"];
+  if (!parameters || parameters.IsNull()) return;
+  r.requireMap(parameters, "parameters");
+  for (const auto& entry : parameters) {
+    const std::string component = entry.first.Scalar();
+    const std::string key = "parameters." + component;
+    if (!known_components.empty() &&
+        std::find(known_components.begin(), known_components.end(), component) == known_components.end()) {
+      throw ExperimentFileError(path + ": unknown component '" + component + "' under parameters" + at(entry.first) +
+                                "; the components are " + joined(known_components));
+    }
+    r.identifier(entry.first, key);
+    r.requireMap(entry.second, key);
+    const auto table = declared.find(component);
+    const ParameterTable* declaration = table == declared.end() ? nullptr : table->second;
+    for (const auto& value : entry.second) {
+      checkParameterValue(r, path, component, key + "." + value.first.Scalar(), value, declaration);
+    }
+    YAML::Emitter out;
+    out << YAML::Flow << entry.second;
+    spec.parameters[component] = out.c_str();
+  }
+}
+
+}  // namespace
+
+ExperimentSpec loadExperimentFile(const std::string& path, const std::vector<Override>& overrides,
+                                  const std::vector<std::string>& known_components,
+                                  const std::map<std::string, const ParameterTable*>& declared) {
+  const YAML::Node root = readRoot(path, overrides);
+  const Reader r(path);
+  r.requireKnownKeys(root, "", kTopKeys);
+  ExperimentSpec spec;
+  spec.file = path;
+  readSettings(r, root, path, spec);
+  readPhases(r, root, path, spec);
+  readParameters(r, root, path, known_components, declared, spec);
   return spec;
 }
 

@@ -331,7 +331,7 @@ std::string sceneToJson(const SceneDescription& scene, std::uint32_t generation)
                       {"nodes", nodes},
                       {"cameras", cameras},
                       {"frame_nodes", frameNodes(scene)}};
-  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return dumpJson(j);
 }
 
 std::string encodeFrame(const WebFrame& frame) {
@@ -371,8 +371,8 @@ WebFrame decodeFrame(const std::string& bytes) {
   return frame;
 }
 
-std::string jsonString(const std::string& text) {
-  return nlohmann::json(text).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
+std::string jsonString(const std::string& text) { return dumpJson(nlohmann::json(text)); }
+
+std::string dumpJson(const nlohmann::json& j) { return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
 }  // namespace xpersif::core

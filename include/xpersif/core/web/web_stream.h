@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "xpersif/core/common/scene.h"
 
 namespace xpersif::core {
@@ -179,5 +181,7 @@ WebFrame decodeFrame(const std::string& bytes);
 
 /// JSON string literal of @p text (quotes and escapes), for messages built by hand.
 std::string jsonString(const std::string& text);
+/// @p j as one line of JSON text, as every message goes out: invalid UTF-8 in a string is replaced, never thrown.
+std::string dumpJson(const nlohmann::json& j);
 
 }  // namespace xpersif::core
