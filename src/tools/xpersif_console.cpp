@@ -458,7 +458,7 @@ void addCommands(CLI::App& app, Request& r) {
   app.add_subcommand("next", "run this experiment next instead of the designed one: OBJECT SIDE OFFSET DISTANCE, "
                              "e.g. next red_cube -x 0.01 0.05")
       ->add_option("OBJECT SIDE OFFSET DISTANCE", r.experiment, "the experiment (SIDE: -x, +x, -y or +y)")
-      ->expected(4);
+      ->expected(1, 8);
   app.add_subcommand("progress", "the loop's state and its last experiment");
 }
 
@@ -470,7 +470,10 @@ int checkRequest(Request& r) {
   if (name == "next") {
     xpersif::Experiment e;
     if (r.experiment.size() != 4 || !parseExperiment(r.experiment, 0, &e)) {
-      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers)\n"
+      std::string given;
+      for (const auto& word : r.experiment) given += (given.empty() ? "" : " ") + word;
+      std::cerr << "xpersif: next needs OBJECT SIDE OFFSET DISTANCE, e.g. next box_1 -x 0.01 0.05 (finite numbers), "
+                << "not '" << given << "'\n"
                 << r.command->help();
       return xpersif::core::kExitUsage;
     }
