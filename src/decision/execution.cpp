@@ -403,126 +403,161 @@ std::vector<core::Contract> Execution::readOperators(ExecutePlan::Context& conte
   return qualifiedOperators(loaded, prefer);
 }
 
+/// One goal's plan as it runs (the command's thread): what it runs, what it reaches, what is known so far.
+struct Execution::PlanRun {
+  PlanRun(ExecutePlan::Context& context, ExecutePlanResult& result)
+      : context(context), goal(context.goal()), result(result), steps(goal.steps) {}
+
+  ExecutePlan::Context& context;
+  const ExecutePlanGoal& goal;
+  ExecutePlanResult& result;
+  std::vector<PlanStep> steps;      ///< the plan being run (a replan replaces it)
+  std::vector<PlanStep> succeeded;  ///< the steps that succeeded, across replans (their effects are observed)
+  /// Replanning needs the goal, the operators (read at the first failure, so a plan that runs through costs
+  /// nothing) and the observed state: what held when the plan was made plus the effects of the steps that ran.
+  core::PlanningProblem problem;
+  Contracts contracts;  ///< the contracts read so far, by component
+  int max_replans = 0;
+};
+
 CommandOutcome Execution::execute(ExecutePlan::Context& context, ExecutePlanResult& result) {
-  const ExecutePlanGoal& goal = context.goal();
   // An observation shows the world as it is when the plan starts, or after the command before it: VISION works
   // behind the camera, so its latest vector may be older (under load, a frame from before the scene was arranged).
   observe_after_ = ros::Time::now();
   result.replans = 0;
   result.code = ResultCode::FAILED;
-  std::vector<PlanStep> steps = goal.steps;
-  int max_replans, max_depth;
+  PlanRun plan(context, result);
+  int max_depth;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    max_replans = max_replans_;
+    plan.max_replans = max_replans_;
     max_depth = max_depth_;
   }
-  // Replanning needs the goal, the operators (read at the first failure, so a plan that runs through costs
-  // nothing) and the observed state: what held when the plan was made plus the effects of the steps that ran.
-  core::PlanningProblem problem;
-  problem.goal = goal.goal;
-  problem.max_depth = static_cast<std::size_t>(max_depth);
+  plan.problem.goal = plan.goal.goal;
+  plan.problem.max_depth = static_cast<std::size_t>(max_depth);
   // Every step against its component's contract and binder before any runs.
-  Contracts contracts;
-  const auto refuse = [&](const StepCheck& check, const std::string& what) {
-    result.success = false;
-    result.failed_step = static_cast<std::uint32_t>(check.index);
-    result.code = check.code;
-    if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled while checking " + what);
-    return CommandOutcome::aborted(result.message = what + " cannot run: " + check.why);
-  };
-  if (const StepCheck check = checkSteps(context, "steps", steps, contracts); !check.why.empty()) {
-    return refuse(check, "the plan");
+  if (const StepCheck check = checkSteps(context, "steps", plan.steps, plan.contracts); !check.why.empty()) {
+    return refuse(plan, check, "the plan");
   }
-  const auto isCommand = [&](const PlanStep& step) {
-    for (const auto& c : contracts[step.component]) {
-      if (c.name == step.operator_name) return c.kind == core::Contract::Kind::Command;
-    }
-    return false;
-  };
-  std::vector<PlanStep> succeeded;
-  for (std::size_t i = 0; i < steps.size(); ++i) {
-    const PlanStep& step = steps[i];
-    const std::string text = stepText(step);
-    const bool is_command = isCommand(step);
+  for (std::size_t i = 0; i < plan.steps.size(); ++i) {
     std::string why;
     std::uint8_t code = ResultCode::OK;
-    for (std::uint32_t attempt = 0; attempt <= goal.retries; ++attempt) {
-      bool cancelled = false;
-      ExecutePlanFeedback feedback;
-      feedback.step = static_cast<std::uint32_t>(i);
-      feedback.status = "running " + text + (attempt ? " (retry " + std::to_string(attempt) + ")" : "");
-      context.publishFeedback(feedback);
-      why = runStep(context, step, is_command, result, cancelled, code);
-      if (cancelled || context.cancelRequested()) {
-        result.success = false;
-        result.failed_step = static_cast<std::uint32_t>(i);
-        return CommandOutcome::preempted(result.message = "cancelled during step " + std::to_string(i) + " " + text);
-      }
-      if (context.stopRequested()) {
-        result.failed_step = static_cast<std::uint32_t>(i);
-        return CommandOutcome::aborted(result.message = "stopped during step " + std::to_string(i) + " " + text);
-      }
-      feedback.status = why.empty() ? "done " + text : "failed " + text + ": " + why;
-      context.publishFeedback(feedback);
-      if (why.empty()) break;
-      // A bad request stays bad: no retry, no replan (decided on the component's code, not its words).
-      if (code == ResultCode::INVALID) break;
-      ROS_WARN_STREAM(name() << ": step " << i << " " << text << " failed (attempt " << attempt + 1 << "): " << why);
-    }
+    if (Ending end = attemptStep(plan, i, why, code)) return *end;
     if (why.empty()) {
-      succeeded.push_back(step);
+      plan.succeeded.push_back(plan.steps[i]);
       continue;
     }
-    result.success = false;
-    result.failed_step = static_cast<std::uint32_t>(i);
-    result.message = "step " + std::to_string(i) + " " + text + " failed after " + std::to_string(goal.retries + 1) +
-                     (goal.retries ? " attempts: " : " attempt: ") + why;
-    if (code == ResultCode::INVALID) {
-      result.code = ResultCode::INVALID;
-      return CommandOutcome::aborted(result.message);
-    }
-    if (goal.goal.empty()) return CommandOutcome::aborted(result.message);
-    if (result.replans >= static_cast<std::uint32_t>(max_replans)) {
-      return CommandOutcome::aborted(result.message += "; no replan left (~max_replans " +
-                                                       std::to_string(max_replans) + ")");
-    }
-    ++result.replans;
-    core::PlanResult replanned;
-    try {
-      if (problem.operators.empty()) problem.operators = readOperators(context);
-      // A step of a component outside ~components has no known effects: applyStep refuses it, and so do we.
-      std::set<std::string> state(goal.state.begin(), goal.state.end());
-      for (const auto& done : succeeded) state = core::applyStep(problem, state, toCoreStep(done));
-      replanned = core::replan(problem, state, toCoreStep(step));
-    } catch (const std::exception& e) {
-      return CommandOutcome::aborted(result.message += "; cannot replan: " + std::string(e.what()));
-    }
-    if (!replanned.found) {
-      return CommandOutcome::aborted(result.message += "; replanning from the observed state found no plan: " +
-                                                       replanned.reason);
-    }
-    std::vector<PlanStep> next = toStepMessages(replanned.steps, problem.operators);
-    fillOpenValues(next, steps);
-    if (const StepCheck check = checkSteps(context, "replanned steps", next, contracts); !check.why.empty()) {
-      if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled while replanning");
-      return CommandOutcome::aborted(result.message += "; the new plan cannot run: " + check.why);
-    }
-    std::string plan_text;
-    for (const auto& s : next) plan_text += (plan_text.empty() ? "" : ", ") + stepText(s);
-    ROS_INFO_STREAM(name() << ": replan " << result.replans << " after " << text << ": " << plan_text);
-    ExecutePlanFeedback feedback;
-    feedback.step = static_cast<std::uint32_t>(i);
-    feedback.status = "replanned (" + std::to_string(result.replans) + ") after " + text + ": " + plan_text;
-    context.publishFeedback(feedback);
-    steps = std::move(next);
+    if (Ending end = afterFailure(plan, i, why, code)) return *end;
     i = static_cast<std::size_t>(-1);  // the loop's ++ starts the new plan at 0
   }
   result.success = true;
   result.code = ResultCode::OK;
-  result.message = std::to_string(steps.size()) + " steps done" +
+  result.message = std::to_string(plan.steps.size()) + " steps done" +
                    (result.replans ? " after " + std::to_string(result.replans) + " replan(s)" : "");
   return CommandOutcome::succeeded(result.message);
+}
+
+CommandOutcome Execution::refuse(PlanRun& plan, const StepCheck& check, const std::string& what) {
+  plan.result.success = false;
+  plan.result.failed_step = static_cast<std::uint32_t>(check.index);
+  plan.result.code = check.code;
+  if (plan.context.cancelRequested()) {
+    return CommandOutcome::preempted(plan.result.message = "cancelled while checking " + what);
+  }
+  return CommandOutcome::aborted(plan.result.message = what + " cannot run: " + check.why);
+}
+
+bool Execution::isCommand(PlanRun& plan, const PlanStep& step) {
+  for (const auto& c : plan.contracts[step.component]) {
+    if (c.name == step.operator_name) return c.kind == core::Contract::Kind::Command;
+  }
+  return false;
+}
+
+Execution::Ending Execution::attemptStep(PlanRun& plan, std::size_t i, std::string& why, std::uint8_t& code) {
+  const PlanStep& step = plan.steps[i];
+  const std::string text = stepText(step);
+  const bool is_command = isCommand(plan, step);
+  ExecutePlan::Context& context = plan.context;
+  for (std::uint32_t attempt = 0; attempt <= plan.goal.retries; ++attempt) {
+    bool cancelled = false;
+    ExecutePlanFeedback feedback;
+    feedback.step = static_cast<std::uint32_t>(i);
+    feedback.status = "running " + text + (attempt ? " (retry " + std::to_string(attempt) + ")" : "");
+    context.publishFeedback(feedback);
+    why = runStep(context, step, is_command, plan.result, cancelled, code);
+    if (cancelled || context.cancelRequested()) {
+      plan.result.success = false;
+      plan.result.failed_step = static_cast<std::uint32_t>(i);
+      return CommandOutcome::preempted(plan.result.message = "cancelled during step " + std::to_string(i) + " " + text);
+    }
+    if (context.stopRequested()) {
+      plan.result.failed_step = static_cast<std::uint32_t>(i);
+      return CommandOutcome::aborted(plan.result.message = "stopped during step " + std::to_string(i) + " " + text);
+    }
+    feedback.status = why.empty() ? "done " + text : "failed " + text + ": " + why;
+    context.publishFeedback(feedback);
+    if (why.empty()) break;
+    // A bad request stays bad: no retry, no replan (decided on the component's code, not its words).
+    if (code == ResultCode::INVALID) break;
+    ROS_WARN_STREAM(name() << ": step " << i << " " << text << " failed (attempt " << attempt + 1 << "): " << why);
+  }
+  return std::nullopt;
+}
+
+Execution::Ending Execution::afterFailure(PlanRun& plan, std::size_t i, const std::string& why, std::uint8_t code) {
+  ExecutePlanResult& result = plan.result;
+  const std::uint32_t retries = plan.goal.retries;
+  result.success = false;
+  result.failed_step = static_cast<std::uint32_t>(i);
+  result.message = "step " + std::to_string(i) + " " + stepText(plan.steps[i]) + " failed after " +
+                   std::to_string(retries + 1) + (retries ? " attempts: " : " attempt: ") + why;
+  if (code == ResultCode::INVALID) {
+    result.code = ResultCode::INVALID;
+    return CommandOutcome::aborted(result.message);
+  }
+  if (plan.goal.goal.empty()) return CommandOutcome::aborted(result.message);
+  if (result.replans >= static_cast<std::uint32_t>(plan.max_replans)) {
+    return CommandOutcome::aborted(result.message += "; no replan left (~max_replans " +
+                                                     std::to_string(plan.max_replans) + ")");
+  }
+  ++result.replans;
+  return replan(plan, i);
+}
+
+Execution::Ending Execution::replan(PlanRun& plan, std::size_t i) {
+  ExecutePlanResult& result = plan.result;
+  const PlanStep& failed = plan.steps[i];
+  const std::string text = stepText(failed);
+  core::PlanResult replanned;
+  try {
+    if (plan.problem.operators.empty()) plan.problem.operators = readOperators(plan.context);
+    // A step of a component outside ~components has no known effects: applyStep refuses it, and so do we.
+    std::set<std::string> state(plan.goal.state.begin(), plan.goal.state.end());
+    for (const auto& done : plan.succeeded) state = core::applyStep(plan.problem, state, toCoreStep(done));
+    replanned = core::replan(plan.problem, state, toCoreStep(failed));
+  } catch (const std::exception& e) {
+    return CommandOutcome::aborted(result.message += "; cannot replan: " + std::string(e.what()));
+  }
+  if (!replanned.found) {
+    return CommandOutcome::aborted(result.message += "; replanning from the observed state found no plan: " +
+                                                     replanned.reason);
+  }
+  std::vector<PlanStep> next = toStepMessages(replanned.steps, plan.problem.operators);
+  fillOpenValues(next, plan.steps);
+  if (const StepCheck check = checkSteps(plan.context, "replanned steps", next, plan.contracts); !check.why.empty()) {
+    if (plan.context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled while replanning");
+    return CommandOutcome::aborted(result.message += "; the new plan cannot run: " + check.why);
+  }
+  std::string plan_text;
+  for (const auto& s : next) plan_text += (plan_text.empty() ? "" : ", ") + stepText(s);
+  ROS_INFO_STREAM(name() << ": replan " << result.replans << " after " << text << ": " << plan_text);
+  ExecutePlanFeedback feedback;
+  feedback.step = static_cast<std::uint32_t>(i);
+  feedback.status = "replanned (" + std::to_string(result.replans) + ") after " + text + ": " + plan_text;
+  plan.context.publishFeedback(feedback);
+  plan.steps = std::move(next);
+  return std::nullopt;
 }
 
 }  // namespace xpersif

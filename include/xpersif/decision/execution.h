@@ -37,6 +37,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "xpersif/ExecutePlanAction.h"
@@ -89,7 +90,22 @@ class Execution : public Component {
                        Contracts& contracts);
   /// The contracts @p component gives with get_contracts; throws UnavailableError when it does not answer.
   std::vector<core::Contract> readContracts(ExecutePlan::Context& context, const std::string& component);
+  // ---- execute_plan as named steps over one PlanRun (execution.cpp) ----
+  struct PlanRun;
+  /// The goal's outcome when it ends at a step; empty: the plan goes on.
+  using Ending = std::optional<CommandOutcome>;
   CommandOutcome execute(ExecutePlan::Context& context, ExecutePlanResult& result);
+  /// Ends the goal before any step ran: @p what (the plan) cannot run as @p check says.
+  CommandOutcome refuse(PlanRun& plan, const StepCheck& check, const std::string& what);
+  /// Whether step @p step is a command of its component (its contracts are read), else an operation.
+  bool isCommand(PlanRun& plan, const PlanStep& step);
+  /// Step @p i, tried again up to goal.retries times unless its code is INVALID; its last @p why ("" when it
+  /// succeeded) and @p code. Ends the goal when cancelled or stopped.
+  Ending attemptStep(PlanRun& plan, std::size_t i, std::string& why, std::uint8_t& code);
+  /// Step @p i failed for good (@p why, @p code): ends the goal unless a replan may follow, then replans.
+  Ending afterFailure(PlanRun& plan, std::size_t i, const std::string& why, std::uint8_t code);
+  /// A new plan from the observed state without failed step @p i, checked, in plan.steps; else ends the goal.
+  Ending replan(PlanRun& plan, std::size_t i);
   /// The qualified contracts of ~components, read with their get_contracts (in the command thread); throws
   /// UnavailableError naming a component that did not answer.
   std::vector<core::Contract> readOperators(ExecutePlan::Context& context);

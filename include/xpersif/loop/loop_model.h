@@ -42,6 +42,7 @@
 
 #include <atomic>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <map>
@@ -51,6 +52,7 @@
 #include "xpersif/ExperimentRecord.h"
 #include "xpersif/FeatureVector.h"
 #include "xpersif/LearnedModel.h"
+#include "xpersif/MakePlan.h"
 #include "xpersif/Motivation.h"
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/SetExperiment.h"
@@ -77,28 +79,111 @@ class LoopModel : public Supervisor {
   void onConfigure() override;
 
  private:
+  // ---- its contracts (loop_model.cpp) ----
+  /// The command `run` (xpersif/RunLoop) with its contract.
+  void declareRun();
+  /// The sliding autonomy's operations: pause, resume, stop, confirm (std_srvs/Trigger) and set_next_experiment.
+  void declareOperations();
+  /// One std_srvs/Trigger operation: checked by @p check ("" or why not), then @p act.
+  void declareTrigger(const std::string& name, const std::string& description, const std::string& precondition,
+                      const std::string& precondition_text, const std::string& effect,
+                      std::function<std::string()> check, std::function<void()> act);
+
+  // ---- the run, as named steps over one RunState (loop_model_run.cpp, loop_model_goals.cpp) ----
+  struct RunState;
+  struct NextExperiment;
+  struct GoalAttempt;
+  /// The run's outcome when it ends at a step; empty: the run goes on.
+  using Ending = std::optional<CommandOutcome>;
+  CommandOutcome run(Run::Context& context, RunLoopResult& result);
+  /// Waits for the components, starts or resumes the run in the knowledge base, arranges a new run's arena
+  /// and puts a resumed run's world back in the state of the step it resumes at.
+  Ending startOrResume(RunState& run);
+  /// Every component up (bounded by ~startup_timeout each); "" or why not.
+  std::string waitForComponents(RunState& run);
+  /// The knowledge base's start_run (its answer in run.start); "" or why not.
+  std::string startInKnowledgeBase(RunState& run);
+  /// The progress at the run's start: started or resumed, what is done and what is left.
+  void announceStart(RunState& run);
+  /// The world as it was at the step a resumed run resumes at (a restarted simulator starts from the world file).
+  void restoreResumedWorld(RunState& run);
+  /// The designed experiments, until the run has goal.experiments of them.
+  Ending experimentPhase(RunState& run);
+  /// One experiment: its world state, the gate, the scene, the choice, the experiment, and what is stored of it.
+  Ending experimentStep(RunState& run);
+  /// The world state the step starts from: the one the last step left, or a new checkpoint.
+  Ending takeStepState(RunState& run);
+  /// The features learned from, the scene observed and tidied (drawing from the stream of step @p step).
+  Ending sceneForStep(RunState& run, std::uint64_t step, FeatureVector& scene);
+  /// The hand-chosen experiment queued first, else DESIGNOFEXPERIMENTS's.
+  Ending chooseExperiment(RunState& run, const FeatureVector& scene, NextExperiment& next);
+  /// Back to the step's world state once the lost components are back, to do the experiment again.
+  Ending redoExperiment(RunState& run, const NextExperiment& next, const ExperimentRecord& record, bool replaced);
+  /// The world state after the experiment (the next step's start), then the experiment, in the knowledge base.
+  Ending storeExperiment(RunState& run, const ExperimentRecord& record, const std::string& end_why,
+                         const std::string& end_state);
+  /// @p record as an experiment of run @p run_id in the knowledge base; "" or why not.
+  std::string storeRecord(std::uint64_t run_id, const ExperimentRecord& record);
+  /// Counts a stored experiment, waits for MACHINELEARNING to learn a successful one, and publishes progress.
+  void countExperiment(RunState& run, const Experiment& experiment, const ExperimentRecord& record);
+  /// The goals GOALDESIGN sets, until the run has goal.goals of them.
+  Ending goalPhase(RunState& run);
+  /// One goal: its world state, the gate, the scene, the goal, its pushes, and the goal stored.
+  Ending goalStep(RunState& run, std::uint32_t g);
+  /// The goal's world state, stored in the knowledge base.
+  Ending checkpointGoal(RunState& run, const GoalAttempt& attempt);
+  /// GOALDESIGN's goal for the scene.
+  Ending designGoal(RunState& run, GoalAttempt& attempt);
+  /// Pushes until the object is close enough to the target or the goal has had ~max_goal_pushes.
+  Ending pursueGoal(RunState& run, GoalAttempt& attempt);
+  /// One push chosen by GOALDESIGN, executed and stored (or done again when a component was lost).
+  Ending pushOnce(RunState& run, GoalAttempt& attempt, int push);
+  /// GOALDESIGN's push number @p push (0-based) towards the goal; none (with a warning) when it chose none.
+  std::optional<Experiment> choosePush(RunState& run, const GoalAttempt& attempt, int push);
+  /// After a stored push: learns from it and sees the scene it left.
+  void afterPush(RunState& run, GoalAttempt& attempt, const ExperimentRecord& record);
+  /// The goal reached or missed, in the knowledge base and the progress.
+  Ending recordGoal(RunState& run, GoalAttempt& attempt);
+  /// Logs where the run's wall time went, and tells the knowledge base and the progress that it ended as @p status.
+  void finish(RunState& run, const std::string& status);
+  /// Ends the run (stopped) for @p reason: PREEMPTED when cancelled, else ABORTED.
+  CommandOutcome ended(RunState& run, const std::string& reason);
+  /// Ends the run because the knowledge base did not store @p what (@p why).
+  CommandOutcome unstored(RunState& run, const std::string& what, const std::string& why);
+  /// Ends the run finished, SUCCEEDED with its counts.
+  CommandOutcome finished(RunState& run);
+  /// The successful experiments MACHINELEARNING should have learned once it learned one more.
+  std::uint32_t learnedOneMore(RunState& run);
+
+  // ---- one experiment (loop_model_experiment.cpp) ----
   /// One experiment, start to end; fills @p record (status done or failed, with the reason).
   void runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
                      ExperimentRecord& record);
-  CommandOutcome run(Run::Context& context, RunLoopResult& result);
+  /// The PLANNER's plan for @p experiment: observe, push, observe again; "" or why not.
+  std::string planExperiment(const Experiment& experiment, Run::Context& context, MakePlan& plan);
+  /// EXECUTION runs @p plan; the observations before and after go to @p record; "" or why it failed.
+  std::string executePlan(const MakePlan& plan, Run::Context& context, ExperimentRecord& record);
+  /// MACHINELEARNING's prediction and the outcome observed, with the surprise, in @p record; "" or why not.
+  std::string compareWithPrediction(const Experiment& experiment, ExperimentRecord& record);
+
+  // ---- the progress and sliding autonomy (loop_model.cpp) ----
   /// "" or why the loop must end now (cancel, stop, shutdown); waits while paused or unconfirmed.
   std::string gate(Run::Context& context, bool confirm_each);
   void setState(const std::string& state);
   void publishProgress(Run::Context* context);
-  /// Put cubes pushed against the walls or out of sight back at free spots.
-  /// Put misplaced objects back at random free places drawn from @p stream (core::streamSeed).
+
+  // ---- the arena (loop_model_arena.cpp) ----
+  /// Put cubes pushed against the walls, against each other or out of sight back at random free places drawn
+  /// from @p stream (core::streamSeed).
   int tidyArena(const FeatureVector& scene, std::uint64_t stream);  ///< how many objects it moved
   /// The set-up's catalogue, read from XPERSim's scene the first time it is needed (XPERSim is one of the
   /// components LOOPMODEL starts, so not at configure). @throws std::runtime_error when it cannot be had
   const core::SetupCatalogue& catalogue();
-  /// Samples of MACHINELEARNING's latest model (GOALDESIGN waits for the same model).
-  std::uint32_t modelSamples();
-  /// What MACHINELEARNING learns from, as its use_features answered (GOALDESIGN waits for that model).
-  std::vector<std::string> learningFeatures();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
   bool getScene(FeatureVector* scene, std::string* why);
-  void waitForLearning(std::uint32_t samples, Run::Context& context);
+
+  // ---- checkpoints and lost components (loop_model_checkpoints.cpp) ----
   /// XPERSim's world state at the start of step @p step of run @p run_id, stored in the knowledge base; the world
   /// goes on from it exactly as a world restored from it. Returns it, or "" (with a warning) when XPERSim could not
   /// give it; when the knowledge base did not store it, @p refused says why (the caller ends the run).
@@ -116,6 +201,14 @@ class LoopModel : public Supervisor {
   /// Once no component is lost any more (up to 180 s), the world back in @p state; "" or why not.
   std::string returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state);
   void onComponentLost(const SupervisedComponent& component, const std::string& reason) override;
+
+  // ---- learning and the features learned from (loop_model_features.cpp) ----
+  /// Samples of MACHINELEARNING's latest model (GOALDESIGN waits for the same model).
+  std::uint32_t modelSamples();
+  /// What MACHINELEARNING learns from, as its use_features answered (GOALDESIGN waits for that model).
+  std::vector<std::string> learningFeatures();
+  void waitForLearning(std::uint32_t samples, Run::Context& context);
+
   /// Which features the run learns from, and how far that is applied (the run's thread only).
   struct FeatureStage {
     int applied = -1;  ///< -1: nothing yet in this run, 0: the initial features, 1: FEATURESELECTION's choice
@@ -148,9 +241,9 @@ class LoopModel : public Supervisor {
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};
   std::atomic<int> confirmations_{0};
-  std::atomic<std::uint64_t> losses_{0};
+  std::atomic<std::uint64_t> losses_{0};  // components lost so far (a step that saw one is done again)
   std::string world_lineage_;  // XPERSim's lineage of the world last checkpointed or restored (loop thread only)
-  double latest_clock_ = 0;  // the latest simulated time the run's thread saw (a restored world's clock goes on after it)  // components lost so far (a step that saw one is done again)
+  double latest_clock_ = 0;  // the latest simulated time the run's thread saw (a restored world's clock goes on after it)
   std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
   RunLoopFeedback progress_;
   std::uint32_t model_samples_ = 0;
