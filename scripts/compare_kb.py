@@ -4,8 +4,10 @@ notions, XPERSim's world states at the start of every step and FEATURESELECTION'
 features_chosen and feature_scores of every run), except times (wall-clock creation times; simulated start/finish times and feature-vector stamps,
 which include the idle time of a lockstep clock). Exit 0 when equal, 1 with the differences listed.
 
-usage: compare_kb.py A.db B.db [--keep-times]"""
+usage: compare_kb.py A.db B.db [--keep-times]
+exit: 0 equal; 1 they differ; 2 usage; 3 a file is missing or not a knowledge base"""
 import json
+import os
 import sqlite3
 import sys
 
@@ -40,10 +42,25 @@ def tables(path):
 def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     keep_times = "--keep-times" in sys.argv
-    if len(args) != 2:
+    if "-h" in sys.argv[1:] or "--help" in sys.argv[1:]:
+        print(__doc__)
+        return 0
+    unknown = [a for a in sys.argv[1:] if a.startswith("-") and a != "--keep-times"]
+    if unknown or len(args) != 2:
+        print(f"compare_kb: unknown option {unknown[0]}" if unknown else "compare_kb: give two knowledge bases",
+              file=sys.stderr)
         print(__doc__, file=sys.stderr)
         return 2
     a, b = args
+    for path in (a, b):
+        if not os.path.isfile(path):
+            print(f"compare_kb: {path} is not a knowledge base file (it does not exist)", file=sys.stderr)
+            return 3
+        try:
+            tables(path)
+        except sqlite3.DatabaseError as e:
+            print(f"compare_kb: {path} is not a readable knowledge base: {e}", file=sys.stderr)
+            return 3
     differences = 0
     compared = 0
     for table in sorted(tables(a) & tables(b) & {"experiments", "goals", "notions", "world_states"}):

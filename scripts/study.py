@@ -817,10 +817,22 @@ def plots(out, designs, curve_rows, share_rows, objects):
     plt.close(fig)
 
 
+def check_study_is_there(args):
+    """--report-only works on what is there: a directory that holds no study is refused with a sentence."""
+    if not os.path.isdir(args.out):
+        fail("--report-only: %s does not exist; there is no study to report on" % args.out, 3)
+    if not os.path.exists(os.path.join(args.out, "study.json")):
+        fail("--report-only: %s holds no study (no study.json: run the study there first)" % args.out, 3)
+
+
 def main(argv):
     args = parse_args(argv)
+    if args.report_only:
+        check_study_is_there(args)
     eval_objects, eval_why = evaluation_objects(args)
     cells = plan(args, eval_objects)
+    if args.report_only and not any(cell.finished() for cell in cells):
+        fail("--report-only: no cell of the study in %s has finished; there is nothing to report" % args.out, 3)
     print("study: %s: %d designs x %d seeds x %d experiments, evaluation set %d pushes of %s; %d at once" % (
         args.out, len(args.designs), len(args.seed_list), args.budget, args.evaluation_size, ", ".join(eval_objects),
         args.jobs), file=sys.stderr)
