@@ -45,6 +45,51 @@ CallRecord toMsg(const core::CallRecord& call) {
   m.duration = call.duration;
   return m;
 }
+
+// ---- what each operation refuses before anything is stored --------------------------------------------
+
+/// start_run: a name within the store's length, a design name, a seed that fits the store's signed column.
+void validateStartRun(const StartRun::Request& r) {
+  core::throwIfInvalid(core::checkMaxLength("name", r.name, core::KnowledgeBase::kMaxTextLength));
+  if (r.name.empty()) throw core::ValidationError("name is empty; a run needs a name");
+  core::throwIfInvalid(core::checkMaxLength("design", r.design, core::kMaxNameLength));
+  if (r.seed > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+    throw core::ValidationError("seed " + std::to_string(r.seed) + " is larger than 2^63 - 1");
+  }
+}
+
+/// finish_run: the status is finished or stopped.
+void validateFinishRun(const FinishRun::Request& r) { core::requireOneOf("status", r.status, {"finished", "stopped"}); }
+
+/// record_experiment: the record converts (every number finite, sizes within the caps, a failed one says why).
+void validateRecordExperiment(const RecordExperiment::Request& r) { fromMsg(r.record); }
+
+/// get_experiments: the status filter is empty, done or failed.
+void validateGetExperiments(const GetExperiments::Request& r) {
+  core::requireOneOf("status", r.status, {"", "done", "failed"});
+}
+
+/// record_goal: an object's name, a finite target and a final error within reason.
+void validateRecordGoal(const RecordGoal::Request& r) {
+  core::requireIdentifier("object", r.object, core::kMaxNameLength);
+  core::requireFinite("target_x", r.target_x);
+  core::requireFinite("target_y", r.target_y);
+  core::requireInRange("final_error", r.final_error, 0.0, 1e6);
+}
+
+/// record_world_state: a state, not larger than the store keeps.
+void validateRecordWorldState(const RecordWorldState::Request& r) {
+  if (r.state.empty()) throw core::ValidationError("state is empty; it is required");
+  core::requireMaxLength("state", r.state, core::KnowledgeBase::kMaxWorldStateBytes);
+}
+
+/// get_calls: the same checks the store makes, here so that a bad filter is refused before anything is flushed.
+void validateGetCalls(const GetCalls::Request& r) {
+  core::requireOneOf("kind", r.kind, {"", "command", "operation"});
+  core::throwIfInvalid(core::checkMaxLength("component", r.component, core::kMaxNameLength));
+  core::requireFinite("since", r.since);
+  core::requireInRange("limit", r.limit, 0, static_cast<double>(core::KnowledgeBase::kMaxCallsPerQuery));
+}
 }  // namespace
 
 std::string KnowledgeBaseComponent::defaultDatabasePath() {
@@ -61,60 +106,66 @@ std::string KnowledgeBaseComponent::defaultDatabasePath() {
 
 KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/KnowledgeBaseNodelet") {
-  // ---- start_run -------------------------------------------------------------------------------------
+  addOperation<StartRun>(startRunContract(), validateStartRun, [this](auto& r, auto& out) { startRun(r, out); });
+  addOperation<FinishRun>(finishRunContract(), validateFinishRun, [this](auto& r, auto& out) { finishRun(r, out); });
+  addOperation<RecordExperiment>(recordExperimentContract(), validateRecordExperiment,
+                                 [this](auto& r, auto& out) { recordExperiment(r, out); });
+  addOperation<GetExperiments>(
+      runQueryContract<GetExperiments::Request>(
+          operation("get_experiments", "xpersif/GetExperiments", "a run's experiments in seq order"),
+          {"known(experiments, ?run)"}),
+      validateGetExperiments, [this](auto& r, auto& out) { getExperiments(r, out); });
+  addOperation<RecordGoal>(recordGoalContract(), validateRecordGoal,
+                           [this](auto& r, auto& out) { recordGoal(r, out); });
+  addOperation<RecordWorldState>(recordWorldStateContract(), validateRecordWorldState,
+                                 [this](auto& r, auto& out) { recordWorldState(r, out); });
+  addOperation<GetWorldState>(
+      runQueryContract<GetWorldState::Request>(
+          operation("get_world_state", "xpersif/GetWorldState", "the world state stored for a step of a run"), {}),
+      nullptr, [this](auto& r, auto& out) { getWorldState(r, out); });
+  addOperation<GetNotions>(
+      runQueryContract<GetNotions::Request>(
+          operation("get_notions", "xpersif/GetNotions", "the notions learned in a run"), {"known(notions, ?run)"}),
+      nullptr, [this](auto& r, auto& out) { getNotions(r, out); });
+  addOperation<GetCalls>(
+      runQueryContract<GetCalls::Request>(
+          operation("get_calls", "xpersif/GetCalls",
+                    "the stored command and operation calls of a run, oldest first, filtered"),
+          {"known(calls, ?run)"}),
+      validateGetCalls, [this](auto& r, auto& out) { getCalls(r, out); });
+  addOperation<GetFacts>(
+      runQueryContract<GetFacts::Request>(
+          operation("get_facts", "xpersif/GetFacts",
+                    "the ground facts of a run: the latest stored effect per predicate and subject"),
+          {"known(facts, ?run)"}),
+      nullptr, [this](auto& r, auto& out) { getFacts(r, out); });
+}
+
+// ---- contracts --------------------------------------------------------------------------------------------
+
+ContractChecker<StartRun::Request> KnowledgeBaseComponent::startRunContract() {
   core::Contract start = operation("start_run", "xpersif/StartRun",
                                    "start a run (or resume the latest unfinished run of that name); it becomes the current run");
   start.parameters = {"?name"};
   start.effects = {"running(current_run)"};
-  ContractChecker<StartRun::Request> start_contract(start);
-  start_contract.bind([](const StartRun::Request& r) { return core::Bindings{{"?name", r.name}}; });
-  addOperation<StartRun>(
-      start_contract,
-      [](const StartRun::Request& r) {
-        core::throwIfInvalid(core::checkMaxLength("name", r.name, core::KnowledgeBase::kMaxTextLength));
-        if (r.name.empty()) throw core::ValidationError("name is empty; a run needs a name");
-        core::throwIfInvalid(core::checkMaxLength("design", r.design, core::kMaxNameLength));
-        if (r.seed > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
-          throw core::ValidationError("seed " + std::to_string(r.seed) + " is larger than 2^63 - 1");
-        }
-      },
-      [this](const StartRun::Request& r, StartRun::Response& response) {
-        auto kb = store();
-        std::optional<core::RunInfo> run;
-        if (r.resume) run = kb->resumeRun(r.name);
-        response.resumed = run.has_value();
-        if (!run) {
-          run = kb->createRun(r.name, r.parameters.empty() ? "{}" : r.parameters, static_cast<std::int64_t>(r.seed),
-                              r.design);
-        }
-        response.run_id = static_cast<std::uint64_t>(run->id);
-        response.experiments_done = static_cast<std::uint32_t>(kb->experimentCount(run->id, "done"));
-        for (const auto& e : kb->experiments(run->id)) response.experiments_designed += e.design != "goal";
-        response.goals_done = static_cast<std::uint32_t>(kb->goals(run->id).size());
-        response.message = (response.resumed ? "resumed run " : "started run ") + std::to_string(run->id) + " (" +
-                           run->name + ")";
-        announceRun(run->id);
-      });
+  ContractChecker<StartRun::Request> contract(start);
+  contract.bind([](const StartRun::Request& r) { return core::Bindings{{"?name", r.name}}; });
+  return contract;
+}
 
-  // ---- finish_run ------------------------------------------------------------------------------------
+ContractChecker<FinishRun::Request> KnowledgeBaseComponent::finishRunContract() {
   core::Contract finish = operation("finish_run", "xpersif/FinishRun", "mark a run finished or stopped");
   finish.parameters = {"?run", "?status"};
   finish.preconditions = {{"running(?run)", "the run must exist and still be running"}};
   finish.effects = {"not running(?run)", "ended(?run, ?status)"};
-  ContractChecker<FinishRun::Request> finish_contract(finish);
-  finish_contract
+  ContractChecker<FinishRun::Request> contract(finish);
+  contract
       .bind([](const FinishRun::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}, {"?status", r.status}}; })
       .check("running(?run)", [this](const FinishRun::Request& r) { return checkRun(r.run_id, true); });
-  addOperation<FinishRun>(
-      finish_contract,
-      [](const FinishRun::Request& r) { core::requireOneOf("status", r.status, {"finished", "stopped"}); },
-      [this](const FinishRun::Request& r, FinishRun::Response& response) {
-        const std::int64_t run = resolveRun(r.run_id);
-        store()->finishRun(run, r.status);
-        response.message = "run " + std::to_string(run) + " " + r.status;
-      });
+  return contract;
+}
 
-  // ---- record_experiment -----------------------------------------------------------------------------
+ContractChecker<RecordExperiment::Request> KnowledgeBaseComponent::recordExperimentContract() {
   core::Contract record = operation("record_experiment", "xpersif/RecordExperiment",
                                     "store an experiment in one transaction, then publish it on ~experiments");
   record.parameters = {"?run", "?object", "?side"};
@@ -122,8 +173,8 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
                           {"in_setup(?object, ?side)",
                            "the push must fit the set-up: a known object, its side, offset and distance within its limits"}};
   record.effects = {"recorded(?run, ?object, ?side)"};
-  ContractChecker<RecordExperiment::Request> record_contract(record);
-  record_contract
+  ContractChecker<RecordExperiment::Request> contract(record);
+  contract
       .bind([](const RecordExperiment::Request& r) {
         return core::Bindings{{"?run", runText(r.record.run_id)},
                               {"?object", r.record.experiment.object},
@@ -137,175 +188,150 @@ KnowledgeBaseComponent::KnowledgeBaseComponent(ros::NodeHandle nh, ros::NodeHand
           return std::string("the set-up is unknown: ") + e.what();
         }
       });
-  addOperation<RecordExperiment>(
-      record_contract, [](const RecordExperiment::Request& r) { fromMsg(r.record); },
-      [this](const RecordExperiment::Request& r, RecordExperiment::Response& response) {
-        core::ExperimentRecord input = fromMsg(r.record);
-        input.run_id = resolveRun(r.record.run_id);
-        const core::ExperimentRecord stored = store()->recordExperiment(input);
-        ExperimentRecord published = toMsg(stored);
-        // The stored form, so that followers see live exactly what get_experiments gives them on a restore.
-        published.design = r.record.design;
-        response.id = published.id;
-        response.seq = published.seq;
-        response.message = "stored experiment " + std::to_string(stored.seq) + " of run " + std::to_string(stored.run_id);
-        experiments_pub_.publish(published);
-      });
+  return contract;
+}
 
-  // ---- get_experiments -------------------------------------------------------------------------------
-  core::Contract get = operation("get_experiments", "xpersif/GetExperiments", "a run's experiments in seq order");
-  get.parameters = {"?run"};
-  get.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
-  get.effects = {"known(experiments, ?run)"};
-  ContractChecker<GetExperiments::Request> get_contract(get);
-  get_contract.bind([](const GetExperiments::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
-      .check("exists(?run)", [this](const GetExperiments::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<GetExperiments>(
-      get_contract,
-      [](const GetExperiments::Request& r) { core::requireOneOf("status", r.status, {"", "done", "failed"}); },
-      [this](const GetExperiments::Request& r, GetExperiments::Response& response) {
-        const std::int64_t run = resolveRun(r.run_id);
-        for (const auto& e : store()->experiments(run, r.status)) response.experiments.push_back(toMsg(e));
-        response.message = std::to_string(response.experiments.size()) + " experiments of run " + std::to_string(run);
-      });
-
-  // ---- record_goal -----------------------------------------------------------------------------------
+ContractChecker<RecordGoal::Request> KnowledgeBaseComponent::recordGoalContract() {
   core::Contract goal = operation("record_goal", "xpersif/RecordGoal", "store the outcome of a goal-directed episode");
   goal.parameters = {"?run", "?object"};
   goal.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
   goal.effects = {"goal_recorded(?run, ?object)"};
-  ContractChecker<RecordGoal::Request> goal_contract(goal);
-  goal_contract
+  ContractChecker<RecordGoal::Request> contract(goal);
+  contract
       .bind([](const RecordGoal::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}, {"?object", r.object}}; })
       .check("exists(?run)", [this](const RecordGoal::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<RecordGoal>(
-      goal_contract,
-      [](const RecordGoal::Request& r) {
-        core::requireIdentifier("object", r.object, core::kMaxNameLength);
-        core::requireFinite("target_x", r.target_x);
-        core::requireFinite("target_y", r.target_y);
-        core::requireInRange("final_error", r.final_error, 0.0, 1e6);
-      },
-      [this](const RecordGoal::Request& r, RecordGoal::Response& response) {
-        core::GoalRecord g;
-        g.run_id = resolveRun(r.run_id);
-        g.object = r.object;
-        g.target_x = r.target_x;
-        g.target_y = r.target_y;
-        g.reached = r.reached;
-        g.final_error = r.final_error;
-        g.pushes_used = static_cast<int>(std::min<std::uint32_t>(r.pushes, 1u << 30));
-        const core::GoalRecord stored = store()->recordGoal(g);
-        response.message = "stored goal " + std::to_string(stored.id) + " of run " + std::to_string(stored.run_id);
-      });
+  return contract;
+}
 
-  // ---- record_world_state / get_world_state ----------------------------------------------------------
+ContractChecker<RecordWorldState::Request> KnowledgeBaseComponent::recordWorldStateContract() {
   core::Contract record_state = operation("record_world_state", "xpersif/RecordWorldState",
                                           "store XPERSim's world state at the start of a step of a run");
   record_state.parameters = {"?run", "?step"};
   record_state.preconditions = {{"running(?run)", "the run (0: the current one) must exist and be running"}};
   record_state.effects = {"world_state_recorded(?run, ?step)"};
-  ContractChecker<RecordWorldState::Request> record_state_contract(record_state);
-  record_state_contract
+  ContractChecker<RecordWorldState::Request> contract(record_state);
+  contract
       .bind([](const RecordWorldState::Request& r) {
         return core::Bindings{{"?run", runText(r.run_id)}, {"?step", std::to_string(r.step)}};
       })
       .check("running(?run)", [this](const RecordWorldState::Request& r) { return checkRun(r.run_id, true); });
-  addOperation<RecordWorldState>(
-      record_state_contract,
-      [](const RecordWorldState::Request& r) {
-        if (r.state.empty()) throw core::ValidationError("state is empty; it is required");
-        core::requireMaxLength("state", r.state, core::KnowledgeBase::kMaxWorldStateBytes);
-      },
-      [this](const RecordWorldState::Request& r, RecordWorldState::Response& response) {
-        const std::int64_t run = resolveRun(r.run_id);
-        store()->recordWorldState(run, r.step, r.state);
-        response.message = "stored the world state at step " + std::to_string(r.step) + " of run " + std::to_string(run);
-      });
+  return contract;
+}
 
-  core::Contract get_state = operation("get_world_state", "xpersif/GetWorldState",
-                                       "the world state stored for a step of a run");
-  get_state.parameters = {"?run"};
-  get_state.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
-  ContractChecker<GetWorldState::Request> get_state_contract(get_state);
-  get_state_contract.bind([](const GetWorldState::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
-      .check("exists(?run)", [this](const GetWorldState::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<GetWorldState>(
-      get_state_contract, nullptr,
-      [this](const GetWorldState::Request& r, GetWorldState::Response& response) {
-        const std::int64_t run = resolveRun(r.run_id);
-        const auto state = store()->worldState(run, r.step);
-        response.found = state.has_value();
-        if (state) response.state = *state;
-        response.message = (state ? "the world state at step " : "no world state stored for step ") +
-                           std::to_string(r.step) + " of run " + std::to_string(run);
-      });
+template <class Request>
+ContractChecker<Request> KnowledgeBaseComponent::runQueryContract(core::Contract contract,
+                                                                  std::vector<std::string> effects) {
+  contract.parameters = {"?run"};
+  contract.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
+  contract.effects = std::move(effects);
+  ContractChecker<Request> checker(contract);
+  checker.bind([](const Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
+      .check("exists(?run)", [this](const Request& r) { return checkRun(r.run_id, false); });
+  return checker;
+}
 
-  // ---- get_notions -----------------------------------------------------------------------------------
-  core::Contract notions = operation("get_notions", "xpersif/GetNotions", "the notions learned in a run");
-  notions.parameters = {"?run"};
-  notions.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
-  notions.effects = {"known(notions, ?run)"};
-  ContractChecker<GetNotions::Request> notions_contract(notions);
-  notions_contract.bind([](const GetNotions::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
-      .check("exists(?run)", [this](const GetNotions::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<GetNotions>(notions_contract, nullptr,
-                           [this](const GetNotions::Request& r, GetNotions::Response& response) {
-                             const std::int64_t run = resolveRun(r.run_id);
-                             for (const auto& n : store()->notions(run)) response.notions.push_back(toMsg(n));
-                             response.message = std::to_string(response.notions.size()) + " notions of run " +
-                                                std::to_string(run);
-                           });
+// ---- handlers ---------------------------------------------------------------------------------------------
 
-  // ---- get_calls -------------------------------------------------------------------------------------
-  core::Contract calls = operation("get_calls", "xpersif/GetCalls",
-                                   "the stored command and operation calls of a run, oldest first, filtered");
-  calls.parameters = {"?run"};
-  calls.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
-  calls.effects = {"known(calls, ?run)"};
-  ContractChecker<GetCalls::Request> calls_contract(calls);
-  calls_contract.bind([](const GetCalls::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
-      .check("exists(?run)", [this](const GetCalls::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<GetCalls>(
-      calls_contract,
-      [](const GetCalls::Request& r) {
-        // The same checks the store makes, here so that a bad filter is refused before anything is flushed.
-        core::requireOneOf("kind", r.kind, {"", "command", "operation"});
-        core::throwIfInvalid(core::checkMaxLength("component", r.component, core::kMaxNameLength));
-        core::requireFinite("since", r.since);
-        core::requireInRange("limit", r.limit, 0, static_cast<double>(core::KnowledgeBase::kMaxCallsPerQuery));
-      },
-      [this](const GetCalls::Request& r, GetCalls::Response& response) {
-        flushCalls();  // what has arrived is answered, not only what the last period wrote
-        core::CallFilter filter;
-        filter.run_id = resolveRun(r.run_id);
-        // A relative name is a component beside the knowledge base, as the events name them (fully resolved).
-        filter.component = r.component.empty() ? "" : nodeHandle().resolveName(r.component);
-        filter.kind = r.kind;
-        filter.since = r.since;
-        filter.limit = r.limit == 0 ? kDefaultCallLimit : r.limit;
-        bool more = false;
-        for (const auto& c : store()->calls(filter, &more)) response.calls.push_back(toMsg(c));
-        response.truncated = more;
-        response.message = std::to_string(response.calls.size()) + " calls of run " + std::to_string(filter.run_id) +
-                           (more ? " (more match: ask again from the last one's time)" : "");
-      });
+void KnowledgeBaseComponent::startRun(const StartRun::Request& r, StartRun::Response& response) {
+  auto kb = store();
+  std::optional<core::RunInfo> run;
+  if (r.resume) run = kb->resumeRun(r.name);
+  response.resumed = run.has_value();
+  if (!run) {
+    run = kb->createRun(r.name, r.parameters.empty() ? "{}" : r.parameters, static_cast<std::int64_t>(r.seed),
+                        r.design);
+  }
+  response.run_id = static_cast<std::uint64_t>(run->id);
+  response.experiments_done = static_cast<std::uint32_t>(kb->experimentCount(run->id, "done"));
+  for (const auto& e : kb->experiments(run->id)) response.experiments_designed += e.design != "goal";
+  response.goals_done = static_cast<std::uint32_t>(kb->goals(run->id).size());
+  response.message = (response.resumed ? "resumed run " : "started run ") + std::to_string(run->id) + " (" +
+                     run->name + ")";
+  announceRun(run->id);
+}
 
-  // ---- get_facts -------------------------------------------------------------------------------------
-  core::Contract facts = operation("get_facts", "xpersif/GetFacts",
-                                   "the ground facts of a run: the latest stored effect per predicate and subject");
-  facts.parameters = {"?run"};
-  facts.preconditions = {{"exists(?run)", "the run (0: the current one) must exist"}};
-  facts.effects = {"known(facts, ?run)"};
-  ContractChecker<GetFacts::Request> facts_contract(facts);
-  facts_contract.bind([](const GetFacts::Request& r) { return core::Bindings{{"?run", runText(r.run_id)}}; })
-      .check("exists(?run)", [this](const GetFacts::Request& r) { return checkRun(r.run_id, false); });
-  addOperation<GetFacts>(facts_contract, nullptr, [this](const GetFacts::Request& r, GetFacts::Response& response) {
-    flushCalls();
-    const std::int64_t run = resolveRun(r.run_id);
-    for (const auto& f : store()->facts(run)) response.facts.push_back(f.literal);
-    response.message = std::to_string(response.facts.size()) + " facts of run " + std::to_string(run);
-  });
+void KnowledgeBaseComponent::finishRun(const FinishRun::Request& r, FinishRun::Response& response) {
+  const std::int64_t run = resolveRun(r.run_id);
+  store()->finishRun(run, r.status);
+  response.message = "run " + std::to_string(run) + " " + r.status;
+}
+
+void KnowledgeBaseComponent::recordExperiment(const RecordExperiment::Request& r,
+                                              RecordExperiment::Response& response) {
+  core::ExperimentRecord input = fromMsg(r.record);
+  input.run_id = resolveRun(r.record.run_id);
+  const core::ExperimentRecord stored = store()->recordExperiment(input);
+  ExperimentRecord published = toMsg(stored);
+  // The stored form, so that followers see live exactly what get_experiments gives them on a restore.
+  published.design = r.record.design;
+  response.id = published.id;
+  response.seq = published.seq;
+  response.message = "stored experiment " + std::to_string(stored.seq) + " of run " + std::to_string(stored.run_id);
+  experiments_pub_.publish(published);
+}
+
+void KnowledgeBaseComponent::getExperiments(const GetExperiments::Request& r, GetExperiments::Response& response) {
+  const std::int64_t run = resolveRun(r.run_id);
+  for (const auto& e : store()->experiments(run, r.status)) response.experiments.push_back(toMsg(e));
+  response.message = std::to_string(response.experiments.size()) + " experiments of run " + std::to_string(run);
+}
+
+void KnowledgeBaseComponent::recordGoal(const RecordGoal::Request& r, RecordGoal::Response& response) {
+  core::GoalRecord g;
+  g.run_id = resolveRun(r.run_id);
+  g.object = r.object;
+  g.target_x = r.target_x;
+  g.target_y = r.target_y;
+  g.reached = r.reached;
+  g.final_error = r.final_error;
+  g.pushes_used = static_cast<int>(std::min<std::uint32_t>(r.pushes, 1u << 30));
+  const core::GoalRecord stored = store()->recordGoal(g);
+  response.message = "stored goal " + std::to_string(stored.id) + " of run " + std::to_string(stored.run_id);
+}
+
+void KnowledgeBaseComponent::recordWorldState(const RecordWorldState::Request& r,
+                                              RecordWorldState::Response& response) {
+  const std::int64_t run = resolveRun(r.run_id);
+  store()->recordWorldState(run, r.step, r.state);
+  response.message = "stored the world state at step " + std::to_string(r.step) + " of run " + std::to_string(run);
+}
+
+void KnowledgeBaseComponent::getWorldState(const GetWorldState::Request& r, GetWorldState::Response& response) {
+  const std::int64_t run = resolveRun(r.run_id);
+  const auto state = store()->worldState(run, r.step);
+  response.found = state.has_value();
+  if (state) response.state = *state;
+  response.message = (state ? "the world state at step " : "no world state stored for step ") +
+                     std::to_string(r.step) + " of run " + std::to_string(run);
+}
+
+void KnowledgeBaseComponent::getNotions(const GetNotions::Request& r, GetNotions::Response& response) {
+  const std::int64_t run = resolveRun(r.run_id);
+  for (const auto& n : store()->notions(run)) response.notions.push_back(toMsg(n));
+  response.message = std::to_string(response.notions.size()) + " notions of run " + std::to_string(run);
+}
+
+void KnowledgeBaseComponent::getCalls(const GetCalls::Request& r, GetCalls::Response& response) {
+  flushCalls();  // what has arrived is answered, not only what the last period wrote
+  core::CallFilter filter;
+  filter.run_id = resolveRun(r.run_id);
+  // A relative name is a component beside the knowledge base, as the events name them (fully resolved).
+  filter.component = r.component.empty() ? "" : nodeHandle().resolveName(r.component);
+  filter.kind = r.kind;
+  filter.since = r.since;
+  filter.limit = r.limit == 0 ? kDefaultCallLimit : r.limit;
+  bool more = false;
+  for (const auto& c : store()->calls(filter, &more)) response.calls.push_back(toMsg(c));
+  response.truncated = more;
+  response.message = std::to_string(response.calls.size()) + " calls of run " + std::to_string(filter.run_id) +
+                     (more ? " (more match: ask again from the last one's time)" : "");
+}
+
+void KnowledgeBaseComponent::getFacts(const GetFacts::Request& r, GetFacts::Response& response) {
+  flushCalls();
+  const std::int64_t run = resolveRun(r.run_id);
+  for (const auto& f : store()->facts(run)) response.facts.push_back(f.literal);
+  response.message = std::to_string(response.facts.size()) + " facts of run " + std::to_string(run);
 }
 
 const core::SetupCatalogue& KnowledgeBaseComponent::catalogue() {

@@ -6,7 +6,6 @@
 #include <cmath>
 
 #include "xpersif/embodiment/relocation.h"  // describePose
-#include "xpersif/embodiment/control_ticker.h"
 #include "xpersif/ros/setup_loader.h"
 
 namespace xpersif {
@@ -72,10 +71,7 @@ Manipulation::Manipulation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                return std::string();
              })
       .check("localized(robot)",
-             [this](const PushGoal& g) {
-               core::Pose2D pose;
-               return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
-             })
+             [this](const PushGoal& g) { return drive_.whyNotLocalized(g.pose_source); })
       .check("observed(scene)",
              [this](const PushGoal& g) {
                core::Obstacle object;
@@ -140,74 +136,57 @@ const core::ParameterTable& Manipulation::parameters() {
 }
 
 void Manipulation::onConfigure() {
-  ros::NodeHandle& pnh = privateNodeHandle();
-  const ParameterReader parameters(pnh, Manipulation::parameters());
-  EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
-  setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
-  const double rate = parameters.get<double>("control_rate");
-  const double max_linear = parameters.get<double>("max_linear");
-  const double max_angular = parameters.get<double>("max_angular");
+  const ParameterReader parameters(privateNodeHandle(), Manipulation::parameters());
+  const DriveSettings settings = DriveSettings::read(nodeHandle(), privateNodeHandle(), parameters);
   const double margin = parameters.get<double>("margin");
   const double max_age = parameters.get<double>("observation_max_age");
   const double settle = parameters.get<double>("settle_time");
   // The longest push that stays well inside the arena: pushed from the centre, an object ends halfway to the
   // nearest wall (the planner still checks every push against the walls).
+  const core::ArenaGeometry& arena = settings.setup.arena;
   const double max_push_distance =
-      parameters.get<double>("max_push_distance", 0.25 * std::min(setup.arena.size_x, setup.arena.size_y));
+      parameters.get<double>("max_push_distance", 0.25 * std::min(arena.size_x, arena.size_y));
   const std::string observation_topic = parameters.get<std::string>("observation_topic");
   if (parameters.get<bool>("has_gripper")) {
     throw std::runtime_error("~has_gripper is true, but this robot model has no gripper to drive");
   }
-  core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
+  settings.requireWithinWheels();
 
   std::lock_guard<std::mutex> lock(mutex_);
-  setup_ = setup;
-  control_period_ = 1.0 / rate;
-  limits_ = core::MotionLimits();
-  limits_.max_linear = max_linear;
-  limits_.max_angular = max_angular;
-  limits_.require();
+  setup_ = settings.setup;
+  control_period_ = settings.control_period;
+  limits_ = settings.limits;
   margin_ = margin;
   observation_max_age_ = max_age;
   settle_time_ = settle;
   max_push_distance_ = max_push_distance;
-  if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
-  pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
-  // Commands take part in XPERSim's lockstep clock while they run (control_ticker.h).
-  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), false);
+  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic);
 }
 
-void Manipulation::onDeactivate() { publishVelocity({}); }
+void Manipulation::onDeactivate() { drive_.publishVelocity({}); }
 
 void Manipulation::onShutdown() {
-  publishVelocity({});
+  drive_.publishVelocity({});
   std::lock_guard<std::mutex> lock(mutex_);
-  lockstep_.reset();
-  pose_source_.reset();
-}
-
-void Manipulation::publishVelocity(const core::Velocity2D& velocity) {
-  geometry_msgs::Twist twist;
-  twist.linear.x = velocity.linear;
-  twist.angular.z = velocity.angular;
-  if (cmd_vel_pub_) cmd_vel_pub_.publish(twist);
+  drive_.disconnect();
 }
 
 std::string Manipulation::observedObject(const std::string& name, double max_age, core::Obstacle* object) const {
-  if (!pose_source_) return "not configured";
+  RobotPoseSource* const source = drive_.poseSource();
+  if (!source) return "not configured";
   std::map<std::string, core::Footprint> footprints;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     footprints = setup_.object_footprints;
   }
-  for (const auto& o : pose_source_->obstacles(footprints, max_age)) {
+  for (const auto& o : source->obstacles(footprints, max_age)) {
     if (o.name == name) {
       *object = o;
       return "";
     }
   }
-  return pose_source_->observation(max_age) ? "the overhead camera does not see " + name + " now"
-                                            : "no observation in the last " + core::describeNumber(max_age) + " s";
+  return source->observation(max_age) ? "the overhead camera does not see " + name + " now"
+                                      : "no observation in the last " + core::describeNumber(max_age) + " s";
 }
 
 std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, core::PathResult* path) const {
@@ -215,11 +194,11 @@ std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, co
   std::string why = observedObject(goal.object, observation_max_age_, &object);
   if (!why.empty()) return why;
   core::Pose2D start;
-  why = pose_source_->pose(goal.pose_source, &start);
+  why = drive_.poseSource()->pose(goal.pose_source, &start);
   if (!why.empty()) return why;
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<core::Obstacle> others;
-  for (const auto& o : pose_source_->obstacles(setup_.object_footprints, observation_max_age_)) {
+  for (const auto& o : drive_.poseSource()->obstacles(setup_.object_footprints, observation_max_age_)) {
     if (o.name != goal.object) others.push_back(o);
   }
   core::PushRequest request;
@@ -244,9 +223,7 @@ std::string Manipulation::planFor(const PushGoal& goal, core::PushPlan* plan, co
 CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   const PushGoal& goal = context.goal();
   // The overhead camera's view after the push is part of the result: the clock waits for its frames.
-  auto stopping = [&] { return context.stopRequested(); };
-  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, true, nodeHandle().resolveName("observation"),
-                       [this](const core::Velocity2D& v) { publishVelocity(v); });
+  ControlTicker ticker = drive_.ticker(control_period_, true, nodeHandle().resolveName("observation"));
   std::string why = ticker.start();
   if (!why.empty()) return CommandOutcome::aborted(result.message = "cannot take part in the lockstep clock: " + why);
   // Plan from the first tick's sensing, never from whatever frame came last before the join: in lockstep that
@@ -264,6 +241,26 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   result.object_before = toMsg(before.x, before.y, before.yaw);
   const ros::Time started = ros::Time::now();
 
+  core::PushFeedback done;
+  if (auto ended = runPush(context, ticker, plan, path, result, &done)) return *ended;
+  if (auto ended = observeAfterPush(context, ticker, result)) return *ended;
+  ticker.finish();
+  result.blocked = done.blocked;
+  result.pushed = done.pushed;
+  result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
+                   " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
+                   (done.blocked ? " (it resisted: the robot stalled after " + core::describeNumber(done.pushed) +
+                                       " m and backed off)"
+                                 : "") +
+                   (result.observed_after ? "" : " (not seen afterwards)");
+  return CommandOutcome::succeeded(result.message);
+}
+
+std::optional<CommandOutcome> Manipulation::runPush(Push::Context& context, ControlTicker& ticker,
+                                                    const core::PushPlan& plan, const core::PathResult& path,
+                                                    PushResult& result, core::PushFeedback* done) {
+  const PushGoal& goal = context.goal();
+  auto stopping = [&] { return context.stopRequested(); };
   core::MotionLimits limits;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -271,8 +268,6 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   }
   core::PushController controller(limits);
   controller.start(plan, path.waypoints);
-  bool blocked = false;
-  double pushed = 0;
   core::Pose2D pose;
   while (true) {
     if (context.stopRequested()) {
@@ -281,8 +276,8 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
       if (context.cancelRequested()) return CommandOutcome::preempted(result.message = "cancelled; robot stopped");
       return CommandOutcome::aborted(result.message = "component stopping; robot stopped");
     }
-    why = ticker.sense();
-    if (why.empty()) why = pose_source_->pose(goal.pose_source, &pose);
+    std::string why = ticker.sense();
+    if (why.empty()) why = drive_.poseSource()->pose(goal.pose_source, &pose);
     if (!why.empty()) {
       ticker.finish();
       return CommandOutcome::aborted(result.message = "lost the robot's pose: " + why);
@@ -294,9 +289,8 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
       return CommandOutcome::aborted(result.message = "push failed: " + fb.reason);
     }
     if (fb.done) {
-      blocked = fb.blocked;
-      pushed = fb.pushed;
-      break;
+      *done = fb;
+      return std::nullopt;
     }
     PushFeedback feedback;
     feedback.phase = core::toString(fb.phase);
@@ -305,6 +299,12 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
     context.publishFeedback(feedback);
     ticker.next(fb.command, stopping);
   }
+}
+
+std::optional<CommandOutcome> Manipulation::observeAfterPush(Push::Context& context, ControlTicker& ticker,
+                                                             PushResult& result) {
+  const PushGoal& goal = context.goal();
+  auto stopping = [&] { return context.stopRequested(); };
   // Let the object come to rest (the robot standing still), then take the first observation made after that.
   const ros::Time settled = ticker.now() + ros::Duration(settle_time_);
   while (ticker.now() < settled) {
@@ -315,7 +315,7 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
   }
   const ros::Time deadline = settled + ros::Duration(std::max(1.0, 3 * observation_max_age_));
   while (ticker.now() < deadline) {
-    const auto seen = pose_source_->observation();
+    const auto seen = drive_.poseSource()->observation();
     // In lockstep, the camera's next frame (frames follow the physics' own time, stamps include idle time).
     if (seen && (ticker.lockstep() ? ticker.freshObservation() : seen->header.stamp >= settled)) {
       for (const auto& o : seen->objects) {
@@ -327,14 +327,7 @@ CommandOutcome Manipulation::push(Push::Context& context, PushResult& result) {
     }
     if (!ticker.next({}, stopping) || !ticker.sense().empty()) break;
   }
-  ticker.finish();
-  result.blocked = blocked;
-  result.pushed = pushed;
-  result.message = "pushed " + goal.object + " on " + goal.side + " by " + core::describeNumber(goal.distance) +
-                   " m in " + core::describeNumber((ros::Time::now() - started).toSec()) + " s" +
-                   (blocked ? " (it resisted: the robot stalled after " + core::describeNumber(pushed) + " m and backed off)" : "") +
-                   (result.observed_after ? "" : " (not seen afterwards)");
-  return CommandOutcome::succeeded(result.message);
+  return std::nullopt;
 }
 
 }  // namespace xpersif

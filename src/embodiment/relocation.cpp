@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "xpersif/embodiment/control_ticker.h"
 #include "xpersif/ros/setup_loader.h"
+
 
 namespace xpersif {
 
@@ -30,11 +30,32 @@ geometry_msgs::Pose2D toMsg(const core::Pose2D& p) {
   m.theta = p.yaw;
   return m;
 }
+
+/// go_to_pose and turn_to: a pose source that exists.
+template <class Goal>
+void validatePoseSource(const Goal& goal) {
+  core::throwIfInvalid(RobotPoseSource::checkSource(goal.pose_source));
+}
 }  // namespace
 
 Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : Component(std::move(nh), std::move(private_nh), "xpersif/RelocationNodelet") {
-  // ---- go_to_pose --------------------------------------------------------------------------------
+  addCommand<GoToPoseAction>(goToPoseContract(), validatePoseSource<GoToPoseGoal>,
+                             [this](auto& context, auto& result) { return goTo(context, result); },
+                             {goToPoseGoalFrom, reportGoToPose});
+  addCommand<TurnToAction>(turnToContract(), validatePoseSource<TurnToGoal>,
+                           [this](auto& context, auto& result) { return turnTo(context, result); },
+                           {turnToGoalFrom, reportTurnTo});
+  addOperation<SetMaxVelocity>(setMaxVelocityContract(), [this](const auto& r) { validateMaxVelocity(r); },
+                               [this](auto& r, auto& out) { setMaxVelocity(r, out); }, false, nullptr,
+                               {setMaxVelocityRequestFrom, nullptr});
+  addOperation<std_srvs::Trigger>(stopContract(), nullptr, [this](auto& r, auto& out) { stop(r, out); }, false, nullptr,
+                                  {[](const core::Invocation&) { return std_srvs::Trigger::Request(); }, nullptr});
+}
+
+// ---- contracts ----------------------------------------------------------------------------------------------
+
+ContractChecker<GoToPoseGoal> Relocation::goToPoseContract() {
   core::Contract go;
   go.name = "go_to_pose";
   go.kind = core::Contract::Kind::Command;
@@ -47,8 +68,8 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                       {"reachable(?pose)", "a collision-free path must lead from the robot to the target"}};
   // The robot is the subject (first argument): the knowledge base keeps one robot_at fact, the latest.
   go.effects = {"robot_at(robot, ?pose)"};
-  ContractChecker<GoToPoseGoal> go_contract(go);
-  go_contract
+  ContractChecker<GoToPoseGoal> contract(go);
+  contract
       .bind([](const GoToPoseGoal& g) {
         return core::Bindings{{"?pose", describePose(g.target.x, g.target.y, g.target.theta)}};
       })
@@ -60,11 +81,7 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                if (why.empty()) why = core::checkHeading("goal.target.theta", g.target.theta);
                return why;
              })
-      .check("localized(robot)",
-             [this](const GoToPoseGoal& g) {
-               core::Pose2D pose;
-               return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
-             })
+      .check("localized(robot)", [this](const GoToPoseGoal& g) { return drive_.whyNotLocalized(g.pose_source); })
       .check("in_arena(?pose)",
              [this](const GoToPoseGoal& g) {
                std::lock_guard<std::mutex> lock(mutex_);
@@ -74,13 +91,10 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
         core::PathResult path;
         return planTo(g, &path);
       });
-  addCommand<GoToPoseAction>(
-      go_contract,
-      [](const GoToPoseGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
-      [this](GoToPose::Context& context, GoToPoseResult& result) { return goTo(context, result); },
-      {goToPoseGoalFrom, reportGoToPose});
+  return contract;
+}
 
-  // ---- turn_to -----------------------------------------------------------------------------------
+ContractChecker<TurnToGoal> Relocation::turnToContract() {
   core::Contract turn;
   turn.name = "turn_to";
   turn.kind = core::Contract::Kind::Command;
@@ -90,19 +104,14 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   turn.preconditions = {{"finite(?heading)", "the heading must be a finite angle within +-1000 rad"},
                         {"localized(robot)", "the robot's pose must be known from the requested pose source"}};
   turn.effects = {"robot_heading(robot, ?heading)"};
-  ContractChecker<TurnToGoal> turn_contract(turn);
-  turn_contract.bind([](const TurnToGoal& g) { return core::Bindings{{"?heading", core::describeNumber(g.heading)}}; })
+  ContractChecker<TurnToGoal> contract(turn);
+  contract.bind([](const TurnToGoal& g) { return core::Bindings{{"?heading", core::describeNumber(g.heading)}}; })
       .check("finite(?heading)", [](const TurnToGoal& g) { return core::checkHeading("goal.heading", g.heading); })
-      .check("localized(robot)", [this](const TurnToGoal& g) {
-        core::Pose2D pose;
-        return pose_source_ ? pose_source_->poseForCommand(g.pose_source, &pose) : "not configured";
-      });
-  addCommand<TurnToAction>(
-      turn_contract, [](const TurnToGoal& g) { core::throwIfInvalid(RobotPoseSource::checkSource(g.pose_source)); },
-      [this](TurnTo::Context& context, TurnToResult& result) { return turnTo(context, result); },
-      {turnToGoalFrom, reportTurnTo});
+      .check("localized(robot)", [this](const TurnToGoal& g) { return drive_.whyNotLocalized(g.pose_source); });
+  return contract;
+}
 
-  // ---- operations ----------------------------------------------------------------------------------
+ContractChecker<SetMaxVelocity::Request> Relocation::setMaxVelocityContract() {
   core::Contract set_max;
   set_max.name = "set_max_velocity";
   set_max.kind = core::Contract::Kind::Operation;
@@ -110,39 +119,42 @@ Relocation::Relocation(ros::NodeHandle nh, ros::NodeHandle private_nh)
   set_max.description = "limit the speed of the robot's movements (takes effect at once, also mid-move)";
   set_max.parameters = {"?linear", "?angular"};
   set_max.effects = {"max_velocity(?linear, ?angular)"};
-  ContractChecker<SetMaxVelocity::Request> set_max_contract(set_max);
-  set_max_contract.bind([](const SetMaxVelocity::Request& r) {
+  ContractChecker<SetMaxVelocity::Request> contract(set_max);
+  contract.bind([](const SetMaxVelocity::Request& r) {
     return core::Bindings{{"?linear", core::describeNumber(r.linear)}, {"?angular", core::describeNumber(r.angular)}};
   });
-  addOperation<SetMaxVelocity>(
-      set_max_contract,
-      [this](const SetMaxVelocity::Request& r) {
-        core::requireInRange("linear", r.linear, 1e-3, 2.0 * setup_.max_wheel_speed);
-        core::requireInRange("angular", r.angular, 1e-2, 50.0);
-      },
-      [this](const SetMaxVelocity::Request& r, SetMaxVelocity::Response& response) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        limits_.max_linear = r.linear;
-        limits_.max_angular = r.angular;
-        response.linear = limits_.max_linear;
-        response.angular = limits_.max_angular;
-      },
-      false, nullptr, {setMaxVelocityRequestFrom, nullptr});
+  return contract;
+}
 
+ContractChecker<std_srvs::Trigger::Request> Relocation::stopContract() {
   core::Contract stop;
   stop.name = "stop";
   stop.kind = core::Contract::Kind::Operation;
   stop.interface_type = "std_srvs/Trigger";
   stop.description = "stop the robot now: zero velocity, and the running command ends ABORTED";
   stop.effects = {"stopped(robot)"};
-  addOperation<std_srvs::Trigger>(
-      ContractChecker<std_srvs::Trigger::Request>(stop), nullptr,
-      [this](const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-        ++stop_generation_;
-        publishVelocity({});
-        response.message = "stopped";
-      },
-      false, nullptr, {[](const core::Invocation&) { return std_srvs::Trigger::Request(); }, nullptr});
+  return ContractChecker<std_srvs::Trigger::Request>(stop);
+}
+
+// ---- the operations' validation and handlers ----------------------------------------------------------------
+
+void Relocation::validateMaxVelocity(const SetMaxVelocity::Request& r) const {
+  core::requireInRange("linear", r.linear, 1e-3, 2.0 * setup_.max_wheel_speed);
+  core::requireInRange("angular", r.angular, 1e-2, 50.0);
+}
+
+void Relocation::setMaxVelocity(const SetMaxVelocity::Request& r, SetMaxVelocity::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  limits_.max_linear = r.linear;
+  limits_.max_angular = r.angular;
+  response.linear = limits_.max_linear;
+  response.angular = limits_.max_angular;
+}
+
+void Relocation::stop(const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  ++stop_generation_;
+  drive_.publishVelocity({});
+  response.message = "stopped";
 }
 
 GoToPoseGoal goToPoseGoalFrom(const core::Invocation& invocation) {
@@ -196,46 +208,34 @@ const core::ParameterTable& Relocation::parameters() {
 }
 
 void Relocation::onConfigure() {
-  ros::NodeHandle& pnh = privateNodeHandle();
-  const ParameterReader parameters(pnh, Relocation::parameters());
-  EmbodimentSetup setup = loadEmbodimentSetup(nodeHandle());
-  setup.takeObjectsFrom(loadSetupCatalogue(nodeHandle(), pnh));
-  const double rate = parameters.get<double>("control_rate");
-  const double max_linear = parameters.get<double>("max_linear");
-  const double max_angular = parameters.get<double>("max_angular");
+  const ParameterReader parameters(privateNodeHandle(), Relocation::parameters());
+  const DriveSettings settings = DriveSettings::read(nodeHandle(), privateNodeHandle(), parameters);
   const double position_tolerance = parameters.get<double>("position_tolerance");
   const double yaw_tolerance = parameters.get<double>("yaw_tolerance");
   const double margin = parameters.get<double>("margin");
   const double obstacle_max_age = parameters.get<double>("obstacle_max_age");
   const std::string observation_topic = parameters.get<std::string>("observation_topic");
-  core::requireInRange("~max_linear", max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
+  settings.requireWithinWheels();
 
   std::lock_guard<std::mutex> lock(mutex_);
-  setup_ = setup;
-  control_period_ = 1.0 / rate;
-  limits_ = core::MotionLimits();
-  limits_.max_linear = max_linear;
-  limits_.max_angular = max_angular;
-  limits_.require();
+  setup_ = settings.setup;
+  control_period_ = settings.control_period;
+  limits_ = settings.limits;
   options_ = core::GoToPoseOptions();
   options_.position_tolerance = position_tolerance;
   options_.yaw_tolerance = yaw_tolerance;
   options_.timeout = 120.0;
   margin_ = margin;
   obstacle_max_age_ = obstacle_max_age;
-  if (!cmd_vel_pub_) cmd_vel_pub_ = nodeHandle().advertise<geometry_msgs::Twist>("cmd_vel", 10);
-  pose_source_ = std::make_unique<RobotPoseSource>(nodeHandle(), "odom", observation_topic);
-  // Commands take part in XPERSim's lockstep clock while they run (control_ticker.h).
-  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), false);
+  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic);
 }
 
-void Relocation::onDeactivate() { publishVelocity({}); }
+void Relocation::onDeactivate() { drive_.publishVelocity({}); }
 
 void Relocation::onShutdown() {
-  publishVelocity({});
+  drive_.publishVelocity({});
   std::lock_guard<std::mutex> lock(mutex_);
-  lockstep_.reset();
-  pose_source_.reset();
+  drive_.disconnect();
 }
 
 core::MotionLimits Relocation::limits() const {
@@ -243,32 +243,26 @@ core::MotionLimits Relocation::limits() const {
   return limits_;
 }
 
-void Relocation::publishVelocity(const core::Velocity2D& velocity) {
-  geometry_msgs::Twist twist;
-  twist.linear.x = velocity.linear;
-  twist.angular.z = velocity.angular;
-  if (cmd_vel_pub_) cmd_vel_pub_.publish(twist);
-}
-
 std::string Relocation::planTo(const GoToPoseGoal& goal, core::PathResult* path) const {
-  if (!pose_source_) return "not configured";
+  RobotPoseSource* const source = drive_.poseSource();
+  if (!source) return "not configured";
   core::Pose2D start;
-  std::string why = pose_source_->pose(goal.pose_source, &start);
+  std::string why = source->pose(goal.pose_source, &start);
   if (!why.empty()) return why;
   std::lock_guard<std::mutex> lock(mutex_);
   core::PathPlanner planner(setup_.arena, setup_.robot_radius, margin_);
   if (!goal.straight) {
     // The latest observation is the best knowledge of where the objects are, however old (they move only
     // when pushed); planning as if the arena were empty would drive through them.
-    if (!pose_source_->observation(0)) {
+    if (!source->observation(0)) {
       return "no overhead observation of the objects has arrived yet, so no path around them can be planned "
              "(a straight drive needs none)";
     }
-    if (!pose_source_->observation(obstacle_max_age_)) {
+    if (!source->observation(obstacle_max_age_)) {
       ROS_WARN_THROTTLE(5.0, "%s: the latest observation is older than ~obstacle_max_age (%.1f s); planning around "
                         "the objects where it saw them", name().c_str(), obstacle_max_age_);
     }
-    planner.setObstacles(pose_source_->obstacles(setup_.object_footprints, 0));
+    planner.setObstacles(source->obstacles(setup_.object_footprints, 0));
   }
   *path = planner.plan(start, toPose(goal.target));
   return path->ok ? "" : path->reason;
@@ -280,8 +274,8 @@ CommandOutcome Relocation::drive(Context& context, const std::string& pose_sourc
                                  std::string& message) {
   const std::uint64_t stop_generation = stop_generation_;
   auto stopping = [&] { return context.stopRequested() || stop_generation_ != stop_generation; };
-  ControlTicker ticker(lockstep_.get(), *pose_source_, control_period_, pose_source == "observation" || sees_objects,
-                       nodeHandle().resolveName("observation"), [this](const core::Velocity2D& v) { publishVelocity(v); });
+  ControlTicker ticker = drive_.ticker(control_period_, pose_source == "observation" || sees_objects,
+                                      nodeHandle().resolveName("observation"));
   std::string why = ticker.start();
   if (!why.empty()) return CommandOutcome::aborted(message = "cannot take part in the lockstep clock: " + why);
   if (plan) {
@@ -303,7 +297,7 @@ CommandOutcome Relocation::drive(Context& context, const std::string& pose_sourc
                                                                                     : "component stopping; robot stopped");
     }
     why = ticker.sense();
-    if (why.empty()) why = pose_source_->pose(pose_source, &pose);
+    if (why.empty()) why = drive_.poseSource()->pose(pose_source, &pose);
     if (!why.empty()) {
       ticker.finish();
       return CommandOutcome::aborted(message = "lost the robot's pose: " + why);

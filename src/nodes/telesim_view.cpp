@@ -32,27 +32,120 @@ double mean(const std::vector<double>& values) {
   return values.empty() ? 0 : sum / values.size();
 }
 
+/// What the viewer is asked to do (its private parameters).
+struct Options {
+  std::string camera_name = "overhead", xpersim = "/xpersif/xpersim", service, output_dir, video_path;
+  double max_fps = 30, duration = 0;
+  int save_every = 0;
+  bool display = false;
+};
+
+Options readOptions(const ros::NodeHandle& pnh) {
+  // The scene comes from ~get_scene, by default ~xpersim's get_scene: the main job's XPERSim (/xpersif/xpersim);
+  // _xpersim:=/xpersim for the bare simulator of launch/xpersim.launch.
+  Options o;
+  pnh.param("camera", o.camera_name, o.camera_name);
+  pnh.param("xpersim", o.xpersim, o.xpersim);
+  pnh.param("get_scene", o.service, ros::names::append(o.xpersim, "get_scene"));
+  pnh.param("output_dir", o.output_dir, o.output_dir);
+  pnh.param("video", o.video_path, o.video_path);
+  pnh.param("max_fps", o.max_fps, o.max_fps);
+  pnh.param("duration", o.duration, o.duration);
+  pnh.param("save_every", o.save_every, o.save_every);
+  pnh.param("display", o.display, o.display);
+  return o;
+}
+
+/// Inter-frame statistics of the tf stream, measured at receipt (the paper's Table I metric).
+class FrameStats {
+ public:
+  /// A tf frame arrived (the tracker's callback thread).
+  void onFrame() {
+    const ros::WallTime now = ros::WallTime::now();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!last_frame_.isZero()) inter_frame_ms_.push_back((now - last_frame_).toSec() * 1e3);
+    last_frame_ = now;
+    ++frames_;
+  }
+  std::uint64_t frames() const { return frames_; }
+  std::vector<double> intervals() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return inter_frame_ms_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<double> inter_frame_ms_;
+  ros::WallTime last_frame_;
+  std::atomic<std::uint64_t> frames_{0};
+};
+
+/// What the render loop did.
+struct RenderStats {
+  std::vector<double> render_ms;
+  std::uint64_t rendered = 0;
+};
+
+/// Render the camera's view whenever a new tf frame came, at most ~max_fps times a second, for ~duration s (0:
+/// until shut down); each image goes to the video, every ~save_every-th (and the first) to ~output_dir, and to
+/// the window. Returns the last image.
+cv::Mat renderLoop(const Options& options, const xpersif::SceneTracker& tracker, xpersif::core::Renderer& renderer,
+                   const xpersif::core::CameraModel& camera, const FrameStats& stats, cv::VideoWriter& video,
+                   RenderStats& out) {
+  cv::Mat image;
+  std::uint64_t last_rendered_frame = 0;
+  const ros::WallTime start = ros::WallTime::now();
+  ros::WallRate rate(options.max_fps);
+  while (ros::ok() && (options.duration <= 0 || (ros::WallTime::now() - start).toSec() < options.duration)) {
+    rate.sleep();
+    const std::uint64_t frame = stats.frames();
+    if (frame == last_rendered_frame) continue;  // nothing moved
+    last_rendered_frame = frame;
+    const auto world = tracker.worldTransforms();
+    const ros::WallTime t0 = ros::WallTime::now();
+    renderer.render(camera, world.at(camera.frame), world, image);
+    out.render_ms.push_back((ros::WallTime::now() - t0).toSec() * 1e3);
+    ++out.rendered;
+    if (video.isOpened()) video.write(image);
+    const bool save = out.rendered == 1 || (options.save_every > 0 && out.rendered % options.save_every == 0);
+    if (!options.output_dir.empty() && save) {
+      char name[64];
+      std::snprintf(name, sizeof name, "/%s_%06lu.png", options.camera_name.c_str(),
+                    static_cast<unsigned long>(out.rendered));
+      cv::imwrite(options.output_dir + name, image);
+    }
+    if (options.display) {
+      cv::imshow("TeleSimView: " + options.camera_name, image);
+      cv::waitKey(1);
+    }
+  }
+  return image;
+}
+
+/// The summary line on stdout and, with ~output_dir, the inter-frame times as CSV.
+void report(const Options& options, const FrameStats& stats, const RenderStats& rendered) {
+  const std::vector<double> intervals = stats.intervals();
+  std::printf("telesim_view: camera %s, %lu tf frames, inter-frame mean %.3f ms p50 %.3f p99 %.3f max %.3f; "
+              "%lu images rendered, render mean %.2f ms p99 %.2f\n",
+              options.camera_name.c_str(), static_cast<unsigned long>(stats.frames()), mean(intervals),
+              percentile(intervals, 0.5), percentile(intervals, 0.99),
+              intervals.empty() ? 0.0 : *std::max_element(intervals.begin(), intervals.end()),
+              static_cast<unsigned long>(rendered.rendered), mean(rendered.render_ms),
+              percentile(rendered.render_ms, 0.99));
+  if (!options.output_dir.empty()) {
+    std::ofstream csv(options.output_dir + "/telesim_view_inter_frame_ms.csv");
+    csv << "inter_frame_ms\n";
+    for (double v : intervals) csv << v << "\n";
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "telesim_view", ros::init_options::AnonymousName);
   ros::NodeHandle nh, pnh("~");
-  // The scene comes from ~get_scene, by default ~xpersim's get_scene: the main job's XPERSim (/xpersif/xpersim);
-  // _xpersim:=/xpersim for the bare simulator of launch/xpersim.launch.
-  std::string camera_name = "overhead", xpersim = "/xpersif/xpersim", service, output_dir, video_path;
-  double max_fps = 30, duration = 0;
-  int save_every = 0;
-  bool display = false;
-  pnh.param("camera", camera_name, camera_name);
-  pnh.param("xpersim", xpersim, xpersim);
-  pnh.param("get_scene", service, ros::names::append(xpersim, "get_scene"));
-  pnh.param("output_dir", output_dir, output_dir);
-  pnh.param("video", video_path, video_path);
-  pnh.param("max_fps", max_fps, max_fps);
-  pnh.param("duration", duration, duration);
-  pnh.param("save_every", save_every, save_every);
-  pnh.param("display", display, display);
-  if (!(max_fps > 0 && max_fps <= 1000)) {
+  const Options options = readOptions(pnh);
+  if (!(options.max_fps > 0 && options.max_fps <= 1000)) {
     ROS_FATAL("~max_fps must lie in (0, 1000]");
     return 2;
   }
@@ -60,83 +153,37 @@ int main(int argc, char** argv) {
   std::unique_ptr<xpersif::SceneTracker> tracker;
   try {
     tracker = std::make_unique<xpersif::SceneTracker>(nh);
-    tracker->fetch(service, 30.0);  // the paper's two-way invocation that fetches the scene
+    tracker->fetch(options.service, 30.0);  // the paper's two-way invocation that fetches the scene
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("telesim_view: " << e.what());
     return 1;
   }
   const xpersif::core::SceneDescription scene = tracker->scene();
-  const xpersif::core::CameraModel* camera = scene.findCamera(camera_name);
+  const xpersif::core::CameraModel* camera = scene.findCamera(options.camera_name);
   if (!camera) {
-    ROS_FATAL_STREAM("telesim_view: the scene has no camera '" << camera_name << "'");
+    ROS_FATAL_STREAM("telesim_view: the scene has no camera '" << options.camera_name << "'");
     return 1;
   }
   xpersif::core::Renderer renderer(scene);
-
-  // Inter-frame statistics of the tf stream, measured at receipt (the paper's Table I metric).
-  std::mutex stats_mutex;
-  std::vector<double> inter_frame_ms;
-  ros::WallTime last_frame;
-  std::atomic<std::uint64_t> frames{0};
-  tracker->onFrame([&] {
-    const ros::WallTime now = ros::WallTime::now();
-    std::lock_guard<std::mutex> lock(stats_mutex);
-    if (!last_frame.isZero()) inter_frame_ms.push_back((now - last_frame).toSec() * 1e3);
-    last_frame = now;
-    ++frames;
-  });
+  FrameStats stats;
+  tracker->onFrame([&stats] { stats.onFrame(); });
 
   cv::VideoWriter video;
-  if (!video_path.empty()) {
-    video.open(video_path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), max_fps, cv::Size(camera->width, camera->height));
-    if (!video.isOpened()) ROS_WARN_STREAM("telesim_view: cannot write video " << video_path << "; images only");
+  if (!options.video_path.empty()) {
+    video.open(options.video_path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), options.max_fps,
+               cv::Size(camera->width, camera->height));
+    if (!video.isOpened()) {
+      ROS_WARN_STREAM("telesim_view: cannot write video " << options.video_path << "; images only");
+    }
   }
 
   ros::AsyncSpinner spinner(1);
   spinner.start();
-  cv::Mat image;
-  std::vector<double> render_ms;
-  std::uint64_t rendered = 0, last_rendered_frame = 0;
-  const ros::WallTime start = ros::WallTime::now();
-  ros::WallRate rate(max_fps);
-  while (ros::ok() && (duration <= 0 || (ros::WallTime::now() - start).toSec() < duration)) {
-    rate.sleep();
-    const std::uint64_t frame = frames;
-    if (frame == last_rendered_frame) continue;  // nothing moved
-    last_rendered_frame = frame;
-    const auto world = tracker->worldTransforms();
-    const ros::WallTime t0 = ros::WallTime::now();
-    renderer.render(*camera, world.at(camera->frame), world, image);
-    render_ms.push_back((ros::WallTime::now() - t0).toSec() * 1e3);
-    ++rendered;
-    if (video.isOpened()) video.write(image);
-    if (!output_dir.empty() && (rendered == 1 || (save_every > 0 && rendered % save_every == 0))) {
-      char name[64];
-      std::snprintf(name, sizeof name, "/%s_%06lu.png", camera_name.c_str(), static_cast<unsigned long>(rendered));
-      cv::imwrite(output_dir + name, image);
-    }
-    if (display) {
-      cv::imshow("TeleSimView: " + camera_name, image);
-      cv::waitKey(1);
-    }
+  RenderStats rendered;
+  const cv::Mat image = renderLoop(options, *tracker, renderer, *camera, stats, video, rendered);
+  if (!options.output_dir.empty() && !image.empty()) {
+    cv::imwrite(options.output_dir + "/" + options.camera_name + "_last.png", image);
   }
-  if (!output_dir.empty() && !image.empty()) cv::imwrite(output_dir + "/" + camera_name + "_last.png", image);
-
-  std::vector<double> intervals;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex);
-    intervals = inter_frame_ms;
-  }
-  std::printf("telesim_view: camera %s, %lu tf frames, inter-frame mean %.3f ms p50 %.3f p99 %.3f max %.3f; "
-              "%lu images rendered, render mean %.2f ms p99 %.2f\n",
-              camera_name.c_str(), static_cast<unsigned long>(frames.load()), mean(intervals),
-              percentile(intervals, 0.5), percentile(intervals, 0.99),
-              intervals.empty() ? 0.0 : *std::max_element(intervals.begin(), intervals.end()),
-              static_cast<unsigned long>(rendered), mean(render_ms), percentile(render_ms, 0.99));
-  if (!output_dir.empty()) {
-    std::ofstream csv(output_dir + "/telesim_view_inter_frame_ms.csv");
-    csv << "inter_frame_ms\n";
-    for (double v : intervals) csv << v << "\n";
-  }
+  report(options, stats, rendered);
   return 0;
 }

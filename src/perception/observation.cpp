@@ -2,7 +2,6 @@
 
 #include "xpersif/component/parameter_reader.h"
 
-#include <cmath>
 #include <std_msgs/UInt64MultiArray.h>
 
 namespace xpersif {
@@ -13,7 +12,8 @@ Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
                                   [this](const RenderedCamera& camera) {
                                     extraction_.setCamera(camera.scene(), camera.model());
                                   })),
-      extraction_(addPart<FeatureExtractionPart>("feature_extraction")) {
+      extraction_(addPart<FeatureExtractionPart>("feature_extraction")),
+      schedule_(camera_, [this](const ros::Time& lockstep_stamp) { return tick(lockstep_stamp); }) {
   addOperation<GetFeatures>(
       features_.contract("the overhead camera", "the overhead camera has produced no feature vector yet"),
       LatestFeatures::validate,
@@ -61,34 +61,11 @@ void Observation::onConfigure() {
 
 void Observation::onActivate() {
   AggregateComponent::onActivate();
-  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), true);
-  if (!lockstep_->enabled()) {
-    timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
-    return;
-  }
-  // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
-  next_due_ = 0;
-  lockstep_->onTick([this](LockstepClient& client, const LockstepClient::Tick& t) {
-    // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
-    // idle tick shows the standing world again (to whoever waits for a new frame).
-    // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
-    if (t.epoch != epoch_) {  // the world's state was restored: start the schedule again, as a fresh sensor does
-      epoch_ = t.epoch;
-      next_due_ = 0;
-    }
-    if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
-    bool published = false;
-    auto camera = camera_.camera();
-    if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = tick(t.stamp);  // well within the clock's patience
-    if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
-    client.report(t, false, published, {}, next_due_);
-  });
-  lockstep_->join();
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_);
 }
 
 void Observation::onDeactivate() {
-  timer_.stop();
-  lockstep_.reset();  // leaves the clock
+  schedule_.stop();
   AggregateComponent::onDeactivate();
 }
 

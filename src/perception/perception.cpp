@@ -10,7 +10,8 @@ Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
       ir_ring_(addPart<LatestMessagePart<IrRanges>>("ir_ring", nh, "ir")),
       odometry_(addPart<LatestMessagePart<nav_msgs::Odometry>>("odometry", nh, "odom")),
       camera_(addPart<CameraPart>("camera", nh, "robot_camera", [this](const RenderedCamera& c) { onScene(c); })),
-      extraction_(addPart<FeatureExtractionPart>("feature_extraction")) {
+      extraction_(addPart<FeatureExtractionPart>("feature_extraction")),
+      schedule_(camera_, [this](const ros::Time& lockstep_stamp) { return tick(lockstep_stamp); }) {
   core::Contract read_ir;
   read_ir.name = "read_ir";
   read_ir.kind = core::Contract::Kind::Operation;
@@ -106,34 +107,11 @@ void Perception::onScene(const RenderedCamera& camera) {
 
 void Perception::onActivate() {
   AggregateComponent::onActivate();
-  lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), privateNodeHandle(), privateNodeHandle().getNamespace(), true);
-  if (!lockstep_->enabled()) {
-    timer_ = privateNodeHandle().createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { tick(); });
-    return;
-  }
-  // Lockstep: render at the ticks where a frame is due, from the tick's own /tf frame, then report.
-  next_due_ = 0;
-  lockstep_->onTick([this](LockstepClient& client, const LockstepClient::Tick& t) {
-    // Frames are due on the physics' own time, so idle ticks never shift when the moving world is seen; an
-    // idle tick shows the standing world again (to whoever waits for a new frame).
-    // The clock waits for a camera only at its frames (the same rule, core::LockstepCoordinator::startTick).
-    if (t.epoch != epoch_) {  // the world's state was restored: start the schedule again, as a fresh sensor does
-      epoch_ = t.epoch;
-      next_due_ = 0;
-    }
-    if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
-    bool published = false;
-    auto camera = camera_.camera();
-    if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = tick(t.stamp);  // well within the clock's patience
-    if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
-    client.report(t, false, published, {}, next_due_);
-  });
-  lockstep_->join();
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_);
 }
 
 void Perception::onDeactivate() {
-  timer_.stop();
-  lockstep_.reset();  // leaves the clock
+  schedule_.stop();
   AggregateComponent::onDeactivate();
 }
 

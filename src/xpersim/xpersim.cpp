@@ -67,6 +67,39 @@ const char* toString(XPerSim::ClockMode mode) {
   return "?";
 }
 
+// ---- what each operation refuses before anything changes --------------------------------------------------
+
+/// step: 1..kMaxStepsPerCall physics steps.
+void validateStep(const Step::Request& request) {
+  if (request.steps < 1 || request.steps > kMaxStepsPerCall) {
+    throw core::ValidationError("steps is " + std::to_string(request.steps) + "; it must lie in 1.." +
+                                std::to_string(kMaxStepsPerCall));
+  }
+}
+
+/// lockstep: a participant's name and a role that exists.
+void validateLockstep(const Lockstep::Request& request) {
+  core::requireIdentifier("participant", request.participant, 128);
+  if (request.role > Lockstep::Request::ACTOR) {
+    throw core::ValidationError("role is " + std::to_string(request.role) + "; it must be SENSOR (0) or ACTOR (1)");
+  }
+}
+
+/// checkpoint: no state given (it gives one).
+void validateCheckpoint(const WorldState::Request& request) {
+  if (!request.state.empty()) {
+    throw core::ValidationError("state must be empty: ~checkpoint takes a state, ~restore gives one");
+  }
+  core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);  // not used here, but never anything
+}
+
+/// restore: a state, not larger than a world state can be.
+void validateRestore(const WorldState::Request& request) {
+  if (request.state.empty()) throw core::ValidationError("state is empty: give a state that ~checkpoint gave");
+  core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);
+  core::requireMaxLength("state", request.state, kMaxWorldStateBytes);
+}
+
 }  // namespace
 
 XPerSim::XPerSim(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -79,185 +112,79 @@ XPerSim::~XPerSim() { stopThread(); }
 
 void XPerSim::declareOperations() {
   using Trigger = std_srvs::Trigger;
-  addOperation<Trigger>(ContractChecker<Trigger::Request>(operation("pause", "std_srvs/Trigger",
-                                                                    "stop advancing simulated time", {"paused(sim)"})),
-                        nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
-                          paused_ = true;
-                          response.message = "paused";
-                        });
-
-  // In lockstep mode a resumed clock goes on ticking as its participants ask.
-  core::Contract resume = operation("resume", "std_srvs/Trigger", "advance simulated time again", {"not paused(sim)"});
-  ContractChecker<Trigger::Request> resume_contract(resume);
-  addOperation<Trigger>(resume_contract, nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
-    restart_pacing_ = true;
-    {
-      std::lock_guard<std::mutex> lock(world_mutex_);
-      halted_.clear();  // tried again by hand: a blow-up that persists halts it again, with its sentence
-    }
-    paused_ = false;
-    wake_.notify_all();
-    lockstep_wake_.notify_all();
-    response.message = "running";
-  });
-
+  using TriggerContract = ContractChecker<Trigger::Request>;
+  addOperation<Trigger>(
+      TriggerContract(operation("pause", "std_srvs/Trigger", "stop advancing simulated time", {"paused(sim)"})), nullptr,
+      [this](auto& r, auto& out) { pause(r, out); });
+  addOperation<Trigger>(
+      TriggerContract(operation("resume", "std_srvs/Trigger", "advance simulated time again", {"not paused(sim)"})),
+      nullptr, [this](auto& r, auto& out) { resume(r, out); });
   addOperation<Step>(
-      ContractChecker<Step::Request>(operation("step", "xpersif/Step", "pause, then advance a number of physics steps",
-                                               {"paused(sim)"})),
-      [](const Step::Request& request) {
-        if (request.steps < 1 || request.steps > kMaxStepsPerCall) {
-          throw core::ValidationError("steps is " + std::to_string(request.steps) + "; it must lie in 1.." +
-                                      std::to_string(kMaxStepsPerCall));
-        }
-      },
-      [this](const Step::Request& request, Step::Response& response) {
-        std::unique_lock<std::mutex> lock(world_mutex_);
-        if (lockstep_ && running_ && !lockstep_->participants().empty()) {
-          // Whole ticks, through the participants: time passes for everyone, in step.
-          if (paused_) {
-            throw core::UnavailableError(
-                "the simulator is paused, and in lockstep with participants time passes only through their ticks: "
-                "resume it first" + (halted_.empty() ? std::string() : " (" + halted_ + ")"));
-          }
-          const std::uint64_t ticks = (request.steps + steps_per_tick_ - 1) / steps_per_tick_;
-          const std::uint64_t until = ticks_done_ + lockstep_->requestedTicks() + ticks;
-          lockstep_->requestTicks(ticks);
-          lockstep_wake_.notify_all();
-          while (ticks_done_ < until && running_ && ros::ok() && !paused_) {
-            lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
-          }
-          response.time = simTimeLocked();
-          return;
-        }
-        paused_ = true;
-        for (std::int64_t i = 0; i < request.steps && halted_.empty(); ++i) stepLocked();
-        response.time = simTimeLocked();
-      });
+      ContractChecker<Step::Request>(
+          operation("step", "xpersif/Step", "pause, then advance a number of physics steps", {"paused(sim)"})),
+      validateStep, [this](auto& r, auto& out) { step(r, out); });
+  addOperation<Lockstep>(lockstepContract(), validateLockstep,
+                         [this](auto& r, auto& out) { joinOrLeaveLockstep(r, out); }, false);
+  addOperation<Trigger>(
+      TriggerContract(operation("reset", "std_srvs/Trigger", "put the world back to its initial state", {"reset(sim)"})),
+      nullptr, [this](auto& r, auto& out) { reset(r, out); });
+  // A run that may be resumed takes a checkpoint at every experiment boundary; a resumed run restores one.
+  addOperation<WorldState>(
+      standingContract(operation("checkpoint", "xpersif/WorldState",
+                                 "the world's whole state, from which it goes on exactly as a restored world would")),
+      validateCheckpoint, [this](auto& r, auto& out) { checkpoint(r, out); });
+  addOperation<WorldState>(
+      standingContract(operation("restore", "xpersif/WorldState", "put the world back in a state ~checkpoint gave")),
+      validateRestore, [this](auto& r, auto& out) { restore(r, out); });
+  addOperation<SetPose>(setPoseContract(), [this](const SetPose::Request& r) { validateSetPose(r); },
+                        [this](auto& r, auto& out) { setPose(r, out); });
+  addOperation<GetScene>(
+      ContractChecker<GetScene::Request>(
+          operation("get_scene", "xpersif/GetScene", "the scene description clients render from")),
+      nullptr, [this](auto& r, auto& out) { getScene(r, out); }, false);
+  if (allow_fault_injection_) {
+    addOperation<InjectFault>(
+        ContractChecker<InjectFault::Request>(
+            operation("inject_fault", "xpersif/InjectFault", "test hook: a non-finite or huge force on a body")),
+        [this](const InjectFault::Request& r) { validateInjectFault(r); },
+        [this](auto& r, auto& out) { injectFault(r, out); });
+  }
+}
 
+// ---- contracts ----------------------------------------------------------------------------------------------
+
+ContractChecker<Lockstep::Request> XPerSim::lockstepContract() {
   core::Contract lockstep = operation("lockstep", "xpersif/Lockstep", "join or leave the lockstep clock",
                                       {"participant(?name)"});
   lockstep.parameters = {"?name"};
   lockstep.preconditions = {{"lockstep(sim)", "the clock mode is lockstep"}};
-  ContractChecker<Lockstep::Request> lockstep_contract(lockstep);
-  lockstep_contract.bind([](const Lockstep::Request& r) { return core::Bindings{{"?name", r.participant}}; })
+  ContractChecker<Lockstep::Request> contract(lockstep);
+  contract.bind([](const Lockstep::Request& r) { return core::Bindings{{"?name", r.participant}}; })
       .check("lockstep(sim)", [this](const Lockstep::Request&) -> std::string {
         std::lock_guard<std::mutex> lock(world_mutex_);
         return lockstep_ ? "" : "the simulator runs in " + std::string(toString(mode_)) + " mode, not lockstep";
       });
-  addOperation<Lockstep>(
-      lockstep_contract,
-      [](const Lockstep::Request& request) {
-        core::requireIdentifier("participant", request.participant, 128);
-        if (request.role > Lockstep::Request::ACTOR) {
-          throw core::ValidationError("role is " + std::to_string(request.role) + "; it must be SENSOR (0) or ACTOR (1)");
-        }
-      },
-      [this](const Lockstep::Request& request, Lockstep::Response& response) {
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        if (request.join) {
-          lockstep_->join(request.participant, request.role == Lockstep::Request::SENSOR
-                                                   ? core::LockstepCoordinator::Role::Sensor
-                                                   : core::LockstepCoordinator::Role::Actor);
-        } else {
-          if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
-        }
-        response.clock = lockstep_clock_;
-        response.tick = lockstep_->tick();
-        response.phase = lockstep_->phase() == core::LockstepCoordinator::Phase::Sense ? LockstepTick::SENSE
-                                                                                        : LockstepTick::ACT;
-        response.stamp = ros::Time(simTimeLocked());
-        response.complete = lockstep_->phaseComplete();
-        response.message = request.participant + (request.join ? " joined" : " left") + " at tick " +
-                           std::to_string(response.tick);
-        traceLocked(response.message);
-        lockstep_wake_.notify_all();
-      },
-      false);
+  return contract;
+}
 
-  addOperation<Trigger>(ContractChecker<Trigger::Request>(operation(
-                            "reset", "std_srvs/Trigger", "put the world back to its initial state", {"reset(sim)"})),
-                        nullptr, [this](const Trigger::Request&, Trigger::Response& response) {
-                          std::lock_guard<std::mutex> lock(world_mutex_);
-                          world_->reset();
-                          newLineageLocked();
-                          if (!halted_.empty()) {
-                            halted_.clear();
-                            paused_ = false;
-                            wake_.notify_all();
-                            lockstep_wake_.notify_all();
-                          }
-                          idle_time_ = 0;
-                          next_frame_ = next_sensors_ = 0;
-                          restart_pacing_ = true;
-                          publishFrameLocked();
-                          publishSensorsLocked();
-                          response.message = "reset to t=0";
-                        });
+ContractChecker<WorldState::Request> XPerSim::standingContract(core::Contract contract) {
+  // Checked when the call arrives, and again under the world's lock when it is carried out.
+  contract.preconditions = {{"standing(sim)", "no command is moving the world"}};
+  ContractChecker<WorldState::Request> checker(contract);
+  checker.check("standing(sim)", [this](const WorldState::Request&) {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    return whyWorldMovesLocked();
+  });
+  return checker;
+}
 
-  // A run that may be resumed takes a checkpoint at every experiment boundary; a resumed run restores one. Both
-  // change the world's state (a checkpoint restores its own), so both wait for a world that stands: no
-  // command may be moving it.
-  // "" or why not (world_mutex_ held).
-  auto movingWorld = [this]() -> std::string {
-    return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world (a lockstep participant wants time)" : "";
-  };
-  auto requireStandingWorld = [movingWorld]() {
-    const std::string why = movingWorld();
-    if (!why.empty()) throw core::UnavailableError(why + ": take or restore a world state between commands");
-  };
-  // The contract of both: checked when the call arrives, and again under the world's lock when it is carried out.
-  auto standingContract = [this, movingWorld](core::Contract contract) {
-    contract.preconditions = {{"standing(sim)", "no command is moving the world"}};
-    ContractChecker<WorldState::Request> checker(contract);
-    checker.check("standing(sim)", [this, movingWorld](const WorldState::Request&) {
-      std::lock_guard<std::mutex> lock(world_mutex_);
-      return movingWorld();
-    });
-    return checker;
-  };
-  addOperation<WorldState>(
-      standingContract(operation("checkpoint", "xpersif/WorldState",
-                                 "the world's whole state, from which it goes on exactly as a restored world would")),
-      [](const WorldState::Request& request) {
-        if (!request.state.empty()) throw core::ValidationError("state must be empty: ~checkpoint takes a state, ~restore gives one");
-        core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);  // not used here, but never anything
-      },
-      [this, requireStandingWorld](const WorldState::Request&, WorldState::Response& response) {
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        requireStandingWorld();
-        response.state = world_->checkpoint();
-        response.physics_time = world_->time();
-        response.lineage = lineage_;
-        restoredLocked("checkpoint");
-        response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
-      });
-
-  addOperation<WorldState>(
-      standingContract(operation("restore", "xpersif/WorldState", "put the world back in a state ~checkpoint gave")),
-      [](const WorldState::Request& request) {
-        if (request.state.empty()) throw core::ValidationError("state is empty: give a state that ~checkpoint gave");
-        core::requireInRange("min_clock", request.min_clock, 0.0, 1e9);
-        core::requireMaxLength("state", request.state, kMaxWorldStateBytes);
-      },
-      [this, requireStandingWorld](const WorldState::Request& request, WorldState::Response& response) {
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        requireStandingWorld();
-        const double clock = std::max(simTimeLocked(), request.min_clock);
-        world_->restoreState(request.state);  // a state of another world is refused with a sentence, nothing changed
-        // Simulated time never runs backwards in one simulator: the clock stays, the idle time makes up the difference.
-        idle_time_ = std::max(0.0, clock - world_->time());
-        response.physics_time = world_->time();
-        response.lineage = lineage_;
-        restoredLocked("restore");
-        response.message = "restored the world at t=" + core::describeNumber(world_->time()) + " s of physics";
-      });
-
+ContractChecker<SetPose::Request> XPerSim::setPoseContract() {
   core::Contract set_pose = operation("set_pose", "xpersif/SetPose", "place the robot or an object",
                                       {"at(?name, ?pose)"});
   set_pose.parameters = {"?name", "?pose"};
   set_pose.preconditions = {{"clear(?name)", "the body's new place overlaps no other body"}};
-  ContractChecker<SetPose::Request> set_pose_contract(set_pose);
-  set_pose_contract
+  ContractChecker<SetPose::Request> contract(set_pose);
+  contract
       .bind([](const SetPose::Request& r) {
         return core::Bindings{{"?name", r.name},
                               {"?pose", core::describeNumber(r.pose.position.x) + "_" + core::describeNumber(r.pose.position.y)}};
@@ -267,56 +194,161 @@ void XPerSim::declareOperations() {
         const auto check = world_->checkPlacement(request.name, fromPoseMsg(request.pose), request.on_floor);
         return check.problem == core::PhysicsWorld::PlacementCheck::Problem::Overlap ? check.why : "";
       });
-  addOperation<SetPose>(
-      set_pose_contract,
-      [this](const SetPose::Request& request) {
-        core::requireMaxLength("name", request.name, 128);
-        core::throwIfInvalid(checkPose("pose", request.pose));
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        core::requireKnownName("name", request.name, world_->spec().bodyNames());
-        // Inside the arena, not under the floor (whatever else is there): malformed for this world.
-        const auto check = world_->checkPlacement(request.name, fromPoseMsg(request.pose), request.on_floor);
-        if (check.problem == core::PhysicsWorld::PlacementCheck::Problem::Invalid) throw core::ValidationError(check.why);
-      },
-      [this](const SetPose::Request& request, SetPose::Response& response) {
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        world_->setPose(request.name, fromPoseMsg(request.pose), request.on_floor);  // checks again
-        traceLocked("set_pose " + request.name);
-        if (!halted_.empty()) {
-          halted_.clear();
-          paused_ = false;
-          wake_.notify_all();
-          lockstep_wake_.notify_all();
-        }
-        publishFrameLocked();
-        publishSensorsLocked();
-        response.message = request.name + " placed";
-      });
+  return contract;
+}
 
-  addOperation<GetScene>(
-      ContractChecker<GetScene::Request>(operation("get_scene", "xpersif/GetScene",
-                                                   "the scene description clients render from")),
-      nullptr,
-      [this](const GetScene::Request&, GetScene::Response& response) {
-        std::lock_guard<std::mutex> lock(world_mutex_);
-        if (!world_) throw std::runtime_error("no world yet: configure the simulator first");
-        response.scene = toSceneMsg(world_->scene());
-      },
-      false);
+std::string XPerSim::whyWorldMovesLocked() const {
+  return lockstep_ && lockstep_->wantsTime() ? "a command is moving the world (a lockstep participant wants time)" : "";
+}
 
-  if (allow_fault_injection_) {
-    addOperation<InjectFault>(
-        ContractChecker<InjectFault::Request>(operation("inject_fault", "xpersif/InjectFault",
-                                                        "test hook: a non-finite or huge force on a body")),
-        [this](const InjectFault::Request& request) {
-          std::lock_guard<std::mutex> lock(world_mutex_);
-          core::requireKnownName("name", request.name, world_->spec().bodyNames());
-        },
-        [this](const InjectFault::Request& request, InjectFault::Response&) {
-          std::lock_guard<std::mutex> lock(world_mutex_);
-          world_->injectFault(request.name, request.explode);
-        });
+void XPerSim::requireStandingWorldLocked() const {
+  const std::string why = whyWorldMovesLocked();
+  if (!why.empty()) throw core::UnavailableError(why + ": take or restore a world state between commands");
+}
+
+void XPerSim::validateSetPose(const SetPose::Request& request) {
+  core::requireMaxLength("name", request.name, 128);
+  core::throwIfInvalid(checkPose("pose", request.pose));
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  core::requireKnownName("name", request.name, world_->spec().bodyNames());
+  // Inside the arena, not under the floor (whatever else is there): malformed for this world.
+  const auto check = world_->checkPlacement(request.name, fromPoseMsg(request.pose), request.on_floor);
+  if (check.problem == core::PhysicsWorld::PlacementCheck::Problem::Invalid) throw core::ValidationError(check.why);
+}
+
+void XPerSim::validateInjectFault(const InjectFault::Request& request) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  core::requireKnownName("name", request.name, world_->spec().bodyNames());
+}
+
+// ---- handlers -----------------------------------------------------------------------------------------------
+
+void XPerSim::pause(const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  paused_ = true;
+  response.message = "paused";
+}
+
+void XPerSim::resume(const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  // In lockstep mode a resumed clock goes on ticking as its participants ask.
+  restart_pacing_ = true;
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    halted_.clear();  // tried again by hand: a blow-up that persists halts it again, with its sentence
   }
+  paused_ = false;
+  wake_.notify_all();
+  lockstep_wake_.notify_all();
+  response.message = "running";
+}
+
+void XPerSim::step(const Step::Request& request, Step::Response& response) {
+  std::unique_lock<std::mutex> lock(world_mutex_);
+  if (lockstep_ && running_ && !lockstep_->participants().empty()) {
+    // Whole ticks, through the participants: time passes for everyone, in step.
+    if (paused_) {
+      throw core::UnavailableError(
+          "the simulator is paused, and in lockstep with participants time passes only through their ticks: "
+          "resume it first" + (halted_.empty() ? std::string() : " (" + halted_ + ")"));
+    }
+    const std::uint64_t ticks = (request.steps + steps_per_tick_ - 1) / steps_per_tick_;
+    const std::uint64_t until = ticks_done_ + lockstep_->requestedTicks() + ticks;
+    lockstep_->requestTicks(ticks);
+    lockstep_wake_.notify_all();
+    while (ticks_done_ < until && running_ && ros::ok() && !paused_) {
+      lockstep_wake_.wait_for(lock, std::chrono::milliseconds(100));
+    }
+    response.time = simTimeLocked();
+    return;
+  }
+  paused_ = true;
+  for (std::int64_t i = 0; i < request.steps && halted_.empty(); ++i) stepLocked();
+  response.time = simTimeLocked();
+}
+
+void XPerSim::joinOrLeaveLockstep(const Lockstep::Request& request, Lockstep::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (request.join) {
+    lockstep_->join(request.participant, request.role == Lockstep::Request::SENSOR
+                                             ? core::LockstepCoordinator::Role::Sensor
+                                             : core::LockstepCoordinator::Role::Actor);
+  } else {
+    if (lockstep_->leave(request.participant)) world_->setVelocity(0, 0);  // its controller is gone
+  }
+  response.clock = lockstep_clock_;
+  response.tick = lockstep_->tick();
+  response.phase = lockstep_->phase() == core::LockstepCoordinator::Phase::Sense ? LockstepTick::SENSE
+                                                                                  : LockstepTick::ACT;
+  response.stamp = ros::Time(simTimeLocked());
+  response.complete = lockstep_->phaseComplete();
+  response.message = request.participant + (request.join ? " joined" : " left") + " at tick " +
+                     std::to_string(response.tick);
+  traceLocked(response.message);
+  lockstep_wake_.notify_all();
+}
+
+void XPerSim::reset(const std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  world_->reset();
+  newLineageLocked();
+  unhaltLocked();
+  idle_time_ = 0;
+  next_frame_ = next_sensors_ = 0;
+  restart_pacing_ = true;
+  publishFrameLocked();
+  publishSensorsLocked();
+  response.message = "reset to t=0";
+}
+
+void XPerSim::checkpoint(const WorldState::Request&, WorldState::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  requireStandingWorldLocked();
+  response.state = world_->checkpoint();
+  response.physics_time = world_->time();
+  response.lineage = lineage_;
+  restoredLocked("checkpoint");
+  response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
+}
+
+void XPerSim::restore(const WorldState::Request& request, WorldState::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  requireStandingWorldLocked();
+  const double clock = std::max(simTimeLocked(), request.min_clock);
+  world_->restoreState(request.state);  // a state of another world is refused with a sentence, nothing changed
+  // Simulated time never runs backwards in one simulator: the clock stays, the idle time makes up the difference.
+  idle_time_ = std::max(0.0, clock - world_->time());
+  response.physics_time = world_->time();
+  response.lineage = lineage_;
+  restoredLocked("restore");
+  response.message = "restored the world at t=" + core::describeNumber(world_->time()) + " s of physics";
+}
+
+void XPerSim::setPose(const SetPose::Request& request, SetPose::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  world_->setPose(request.name, fromPoseMsg(request.pose), request.on_floor);  // checks again
+  traceLocked("set_pose " + request.name);
+  unhaltLocked();
+  publishFrameLocked();
+  publishSensorsLocked();
+  response.message = request.name + " placed";
+}
+
+void XPerSim::getScene(const GetScene::Request&, GetScene::Response& response) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (!world_) throw std::runtime_error("no world yet: configure the simulator first");
+  response.scene = toSceneMsg(world_->scene());
+}
+
+void XPerSim::injectFault(const InjectFault::Request& request, InjectFault::Response&) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  world_->injectFault(request.name, request.explode);
+}
+
+void XPerSim::unhaltLocked() {
+  if (halted_.empty()) return;
+  halted_.clear();
+  paused_ = false;
+  wake_.notify_all();
+  lockstep_wake_.notify_all();
 }
 
 const core::ParameterTable& XPerSim::parameters() {
@@ -348,106 +380,130 @@ const core::ParameterTable& XPerSim::parameters() {
   return table;
 }
 
-void XPerSim::onConfigure() {
-  ros::NodeHandle& pnh = privateNodeHandle();
+/// What ~configure reads, every value checked before anything changes.
+struct XPerSim::Settings {
+  std::string world_file, mode, trace_file;
+  double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0, max_frame_rate = 1000.0;
+  bool start_paused = false;
+  double tick_period = 0.02, participant_timeout = 10.0, idle_period = 0.05;
+  bool has_seed = false;
+  int seed = -1;
+};
+
+XPerSim::Settings XPerSim::readSettings() {
   const ParameterReader parameters(privateNodeHandle(), XPerSim::parameters());
   if (!parameters.has("world")) throw std::runtime_error("~world is not set; give the path of a world file");
-  const std::string world_file = parameters.get<std::string>("world");
-  const std::string mode = parameters.get<std::string>("clock_mode");
-  const double real_time_factor = parameters.get<double>("real_time_factor");
-  const double tf_rate = parameters.get<double>("tf_rate");
-  const double sensor_rate = parameters.get<double>("sensor_rate");
-  const double max_frame_rate = parameters.get<double>("max_frame_rate");
-  const bool start_paused = parameters.get<bool>("start_paused");
-  const double tick_period = parameters.get<double>("tick_period");
-  const double participant_timeout = parameters.get<double>("participant_timeout");
-  const double idle_period = parameters.get<double>("idle_period");
-  const std::string trace_file = parameters.get<std::string>("trace_file");
+  Settings s;
+  s.world_file = parameters.get<std::string>("world");
+  s.mode = parameters.get<std::string>("clock_mode");
+  s.real_time_factor = parameters.get<double>("real_time_factor");
+  s.tf_rate = parameters.get<double>("tf_rate");
+  s.sensor_rate = parameters.get<double>("sensor_rate");
+  s.max_frame_rate = parameters.get<double>("max_frame_rate");
+  s.start_paused = parameters.get<bool>("start_paused");
+  s.tick_period = parameters.get<double>("tick_period");
+  s.participant_timeout = parameters.get<double>("participant_timeout");
+  s.idle_period = parameters.get<double>("idle_period");
+  s.trace_file = parameters.get<std::string>("trace_file");
   // The run's seed, for what the simulator draws at random (objects' frictions redrawn per contact episode);
   // without it, the world file's physics.seed.
-  const bool has_seed = parameters.has("seed");
-  const int seed = parameters.get<int>("seed", -1);
+  s.has_seed = parameters.has("seed");
+  s.seed = parameters.get<int>("seed", -1);
+  return s;
+}
+
+void XPerSim::onConfigure() {
+  const Settings settings = readSettings();
   // Built completely before it replaces anything: a bad world file leaves the old world running.
-  auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(world_file));
-  if (has_seed) world->setRedrawSeed(static_cast<std::uint64_t>(seed));
+  auto world = std::make_unique<core::PhysicsWorld>(core::loadWorldFile(settings.world_file));
+  if (settings.has_seed) world->setRedrawSeed(static_cast<std::uint64_t>(settings.seed));
 
   stopThread();
   std::lock_guard<std::mutex> lock(world_mutex_);
   world_ = std::move(world);
   newLineageLocked();
-  mode_ = mode == "fast" ? ClockMode::Fast : mode == "lockstep" ? ClockMode::Lockstep : ClockMode::RealTime;
-  real_time_factor_ = real_time_factor;
-  tf_period_ = 1.0 / tf_rate;
-  sensor_period_ = 1.0 / sensor_rate;
-  min_frame_wall_interval_ = 1.0 / max_frame_rate;
-  next_frame_ = next_sensors_ = 0;
-  paused_ = start_paused;
-  // Lockstep: whole physics steps per control tick; participants join again after a reconfigure.
-  steps_per_tick_ = std::max(1, static_cast<int>(std::lround(tick_period / world_->spec().physics.step)));
-  tick_period_ = steps_per_tick_ * world_->spec().physics.step;
-  idle_period_ = idle_period;
-  idle_time_ = 0;
-  lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(participant_timeout) : nullptr);
-  timing_ = {};
-  // Wall nanoseconds, kept increasing: a participant that hears a larger id knows it was forgotten and joins again.
-  lockstep_clock_ = std::max(lockstep_clock_ + 1, static_cast<std::uint64_t>(ros::WallTime::now().toNSec()));
-  trace_.reset();
-  if (!trace_file.empty()) {
-    trace_ = std::make_unique<std::ofstream>(trace_file, std::ios::app);
-    if (!*trace_) throw std::runtime_error("~trace_file: cannot write '" + trace_file + "'");
-    traceLocked("configure world=" + world_file + " mode=" + mode);
-  }
-
-  ros::NodeHandle& nh = nodeHandle();
-  if (!clock_pub_) {
-    // Latched: a node that starts while a lockstep clock stands still still learns what time it is.
-    clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10, true);
-    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-    tf_static_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
-    scene_pub_ = pnh.advertise<Scene>("scene", 1, true);
-    markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
-    ground_truth_pub_ = pnh.advertise<BodyPoses>("ground_truth", 10);
-    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
-    ir_pub_ = nh.advertise<IrRanges>("ir", 10);
-    joints_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
-    tick_pub_ = pnh.advertise<LockstepTick>("tick", 10);
-    lockstep_done_sub_ = pnh.subscribe<LockstepDone>("lockstep_done", 100, &XPerSim::onLockstepDone, this,
-                                                     ros::TransportHints().tcpNoDelay());
-    const auto hints = ros::TransportHints().tcpNoDelay();
-    cmd_vel_sub_ = nh.subscribe<geometry_msgs::Twist>(
-        "cmd_vel", 10,
-        [this](const geometry_msgs::Twist::ConstPtr& twist) {
-          std::string why = checkVector3("cmd_vel.linear", twist->linear);
-          if (why.empty()) why = checkVector3("cmd_vel.angular", twist->angular);
-          if (why.empty()) {
-            std::lock_guard<std::mutex> lock(world_mutex_);
-            if (world_) world_->setVelocity(twist->linear.x, twist->angular.z);
-            char line[96];
-            std::snprintf(line, sizeof line, "cmd_vel v=%a w=%a", twist->linear.x, twist->angular.z);
-            traceLocked(line);
-            return;
-          }
-          ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << why << "; the last command stays");
-          events().publish(events().make(ComponentEvent::OPERATION, "cmd_vel", "refused", why));
-        },
-        ros::VoidConstPtr(), hints);
-    wheel_speeds_sub_ = nh.subscribe<WheelSpeeds>(
-        "wheel_speeds", 10,
-        [this](const WheelSpeeds::ConstPtr& speeds) {
-          try {
-            std::lock_guard<std::mutex> lock(world_mutex_);
-            if (world_) world_->setWheelSpeeds(speeds->left, speeds->right);
-            traceLocked("wheel_speeds");
-          } catch (const core::ValidationError& e) {
-            ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << e.what() << "; the last command stays");
-            events().publish(events().make(ComponentEvent::OPERATION, "wheel_speeds", "refused", e.what()));
-          }
-        },
-        ros::VoidConstPtr(), hints);
-  }
+  applySettingsLocked(settings);
+  openTraceLocked(settings);
+  if (!clock_pub_) connect();
   publishDescriptionLocked();
   publishFrameLocked();
   publishSensorsLocked();
+}
+
+void XPerSim::applySettingsLocked(const Settings& settings) {
+  mode_ = settings.mode == "fast"       ? ClockMode::Fast
+          : settings.mode == "lockstep" ? ClockMode::Lockstep
+                                        : ClockMode::RealTime;
+  real_time_factor_ = settings.real_time_factor;
+  tf_period_ = 1.0 / settings.tf_rate;
+  sensor_period_ = 1.0 / settings.sensor_rate;
+  min_frame_wall_interval_ = 1.0 / settings.max_frame_rate;
+  next_frame_ = next_sensors_ = 0;
+  paused_ = settings.start_paused;
+  // Lockstep: whole physics steps per control tick; participants join again after a reconfigure.
+  steps_per_tick_ = std::max(1, static_cast<int>(std::lround(settings.tick_period / world_->spec().physics.step)));
+  tick_period_ = steps_per_tick_ * world_->spec().physics.step;
+  idle_period_ = settings.idle_period;
+  idle_time_ = 0;
+  lockstep_.reset(mode_ == ClockMode::Lockstep ? new core::LockstepCoordinator(settings.participant_timeout) : nullptr);
+  timing_ = {};
+  // Wall nanoseconds, kept increasing: a participant that hears a larger id knows it was forgotten and joins again.
+  lockstep_clock_ = std::max(lockstep_clock_ + 1, static_cast<std::uint64_t>(ros::WallTime::now().toNSec()));
+}
+
+void XPerSim::openTraceLocked(const Settings& settings) {
+  trace_.reset();
+  if (settings.trace_file.empty()) return;
+  trace_ = std::make_unique<std::ofstream>(settings.trace_file, std::ios::app);
+  if (!*trace_) throw std::runtime_error("~trace_file: cannot write '" + settings.trace_file + "'");
+  traceLocked("configure world=" + settings.world_file + " mode=" + settings.mode);
+}
+
+void XPerSim::connect() {
+  ros::NodeHandle& nh = nodeHandle();
+  ros::NodeHandle& pnh = privateNodeHandle();
+  // Latched: a node that starts while a lockstep clock stands still still learns what time it is.
+  clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10, true);
+  tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  tf_static_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
+  scene_pub_ = pnh.advertise<Scene>("scene", 1, true);
+  markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  ground_truth_pub_ = pnh.advertise<BodyPoses>("ground_truth", 10);
+  odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
+  ir_pub_ = nh.advertise<IrRanges>("ir", 10);
+  joints_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
+  tick_pub_ = pnh.advertise<LockstepTick>("tick", 10);
+  lockstep_done_sub_ = pnh.subscribe<LockstepDone>("lockstep_done", 100, &XPerSim::onLockstepDone, this,
+                                                   ros::TransportHints().tcpNoDelay());
+  const auto hints = ros::TransportHints().tcpNoDelay();
+  cmd_vel_sub_ = nh.subscribe<geometry_msgs::Twist>("cmd_vel", 10, &XPerSim::onCmdVel, this, hints);
+  wheel_speeds_sub_ = nh.subscribe<WheelSpeeds>("wheel_speeds", 10, &XPerSim::onWheelSpeeds, this, hints);
+}
+
+void XPerSim::onCmdVel(const geometry_msgs::Twist::ConstPtr& twist) {
+  std::string why = checkVector3("cmd_vel.linear", twist->linear);
+  if (why.empty()) why = checkVector3("cmd_vel.angular", twist->angular);
+  if (why.empty()) {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    if (world_) world_->setVelocity(twist->linear.x, twist->angular.z);
+    char line[96];
+    std::snprintf(line, sizeof line, "cmd_vel v=%a w=%a", twist->linear.x, twist->angular.z);
+    traceLocked(line);
+    return;
+  }
+  ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << why << "; the last command stays");
+  events().publish(events().make(ComponentEvent::OPERATION, "cmd_vel", "refused", why));
+}
+
+void XPerSim::onWheelSpeeds(const WheelSpeeds::ConstPtr& speeds) {
+  try {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    if (world_) world_->setWheelSpeeds(speeds->left, speeds->right);
+    traceLocked("wheel_speeds");
+  } catch (const core::ValidationError& e) {
+    ROS_ERROR_STREAM_THROTTLE(1.0, name() << ": ignored " << e.what() << "; the last command stays");
+    events().publish(events().make(ComponentEvent::OPERATION, "wheel_speeds", "refused", e.what()));
+  }
 }
 
 void XPerSim::publishDescriptionLocked() {
@@ -641,12 +697,7 @@ void XPerSim::newLineageLocked() {
 void XPerSim::restoredLocked(const std::string& what) {
   ++epoch_;  // sensors start their frame schedules again, as fresh ones after a restart do
   if (lockstep_) lockstep_->restartSchedules();
-  if (!halted_.empty()) {
-    halted_.clear();
-    paused_ = false;
-    wake_.notify_all();
-    lockstep_wake_.notify_all();
-  }
+  unhaltLocked();
   next_frame_ = next_sensors_ = simTimeLocked();
   restart_pacing_ = true;
   traceLocked(what);
@@ -699,20 +750,65 @@ void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
   lockstep_wake_.notify_all();
 }
 
+void XPerSim::dropLateLocked(double now) {
+  for (const auto& late : lockstep_->dropLate(now)) {
+    last_problem_ = "lockstep participant '" + late + "' did not report tick " + std::to_string(lockstep_->tick()) +
+                    " within " + core::describeNumber(lockstep_->timeout()) + " s; it was dropped and time goes on";
+    last_problem_wall_ = now;
+    traceLocked("dropped " + late);
+    ROS_WARN_STREAM(name() << ": " << last_problem_);
+    events().publish(events().make(ComponentEvent::OPERATION, "lockstep", "dropped", last_problem_));
+  }
+}
+
+void XPerSim::advanceTickLocked(double now) {
+  // Nobody wants time: an idle tick keeps the software's timers going (actionlib's status, ROS timers) but
+  // the world stands still, so how long the loop thinks never changes what the physics does.
+  const bool idle = !lockstep_->wantsTime();
+  const auto step_began = std::chrono::steady_clock::now();
+  const core::LockstepCoordinator::Command& command = lockstep_->command();
+  if (command.drives) world_->setVelocity(command.linear, command.angular);
+  lockstep_->consumeRequest();
+  if (idle) {
+    idle_time_ += tick_period_;
+    ++idle_ticks_;
+  } else {
+    for (int i = 0; i < steps_per_tick_; ++i) {
+      if (!physicsStepLocked()) break;  // halted: the world waits, paused, with the reason
+    }
+    if (trace_) {
+      char line[160];
+      std::snprintf(line, sizeof line, "tick %llu drives=%d v=%a w=%a", static_cast<unsigned long long>(lockstep_->tick()),
+                    command.drives ? 1 : 0, command.linear, command.angular);
+      std::string participants;
+      for (const auto& p : lockstep_->participants()) participants += " " + p;
+      traceLocked(line + participants);
+    }
+  }
+  last_tick_wall_ = now;
+  last_tick_idle_ = idle;
+  const auto publish_began = std::chrono::steady_clock::now();
+  publishFrameLocked();
+  publishSensorsLocked();
+  lockstep_->startTick(lockstep_->tick() + 1, now, world_->time(), idle);
+  ++ticks_done_;
+  publishTickLocked(LockstepTick::SENSE, {});
+  sense_began_ = std::chrono::steady_clock::now();
+  sense_owed_ = !lockstep_->phaseComplete();
+  if (!idle) {
+    using Seconds = std::chrono::duration<double>;
+    timing_.addStep(Seconds(step_began - act_began_).count(), Seconds(publish_began - step_began).count(),
+                    Seconds(sense_began_ - publish_began).count());
+  }
+  lockstep_wake_.notify_all();  // the step operation waits for its ticks
+}
+
 void XPerSim::lockstepLoop() {
   using Phase = core::LockstepCoordinator::Phase;
   std::unique_lock<std::mutex> lock(world_mutex_);
   while (running_ && ros::ok() && lockstep_) {
     const double now = ros::WallTime::now().toSec();
-    const auto dropped = lockstep_->dropLate(now);
-    for (const auto& late : dropped) {
-      last_problem_ = "lockstep participant '" + late + "' did not report tick " + std::to_string(lockstep_->tick()) +
-                      " within " + core::describeNumber(lockstep_->timeout()) + " s; it was dropped and time goes on";
-      last_problem_wall_ = now;
-      traceLocked("dropped " + late);
-      ROS_WARN_STREAM(name() << ": " << last_problem_);
-      events().publish(events().make(ComponentEvent::OPERATION, "lockstep", "dropped", last_problem_));
-    }
+    dropLateLocked(now);
     if (lockstep_->phase() == Phase::Sense && lockstep_->phaseComplete()) {
       act_began_ = std::chrono::steady_clock::now();
       if (!last_tick_idle_) timing_.addSensing(std::chrono::duration<double>(act_began_ - sense_began_).count(), sense_owed_);
@@ -727,45 +823,7 @@ void XPerSim::lockstepLoop() {
       continue;
     }
     if (complete) {
-      // Nobody wants time: an idle tick keeps the software's timers going (actionlib's status, ROS timers) but
-      // the world stands still, so how long the loop thinks never changes what the physics does.
-      const bool idle = !lockstep_->wantsTime();
-      const auto step_began = std::chrono::steady_clock::now();
-      const core::LockstepCoordinator::Command& command = lockstep_->command();
-      if (command.drives) world_->setVelocity(command.linear, command.angular);
-      lockstep_->consumeRequest();
-      if (idle) {
-        idle_time_ += tick_period_;
-        ++idle_ticks_;
-      } else {
-        for (int i = 0; i < steps_per_tick_; ++i) {
-          if (!physicsStepLocked()) break;  // halted: the world waits, paused, with the reason
-        }
-        if (trace_) {
-          char line[160];
-          std::snprintf(line, sizeof line, "tick %llu drives=%d v=%a w=%a", static_cast<unsigned long long>(lockstep_->tick()),
-                        command.drives ? 1 : 0, command.linear, command.angular);
-          std::string participants;
-          for (const auto& p : lockstep_->participants()) participants += " " + p;
-          traceLocked(line + participants);
-        }
-      }
-      last_tick_wall_ = now;
-      last_tick_idle_ = idle;
-      const auto publish_began = std::chrono::steady_clock::now();
-      publishFrameLocked();
-      publishSensorsLocked();
-      lockstep_->startTick(lockstep_->tick() + 1, now, world_->time(), idle);
-      ++ticks_done_;
-      publishTickLocked(LockstepTick::SENSE, {});
-      sense_began_ = std::chrono::steady_clock::now();
-      sense_owed_ = !lockstep_->phaseComplete();
-      if (!idle) {
-        using Seconds = std::chrono::duration<double>;
-        timing_.addStep(Seconds(step_began - act_began_).count(), Seconds(publish_began - step_began).count(),
-                        Seconds(sense_began_ - publish_began).count());
-      }
-      lockstep_wake_.notify_all();  // the step operation waits for its ticks
+      advanceTickLocked(now);
       continue;
     }
     // With nobody taking part, the clock announces itself: participants of an older clock (this simulator

@@ -75,6 +75,38 @@ class KnowledgeBaseComponent : public Component {
   void onShutdown() override;
 
  private:
+  // The operations' contracts (their preconditions read the store and the set-up), bound in the constructor.
+  ContractChecker<StartRun::Request> startRunContract();
+  ContractChecker<FinishRun::Request> finishRunContract();
+  ContractChecker<RecordExperiment::Request> recordExperimentContract();
+  ContractChecker<RecordGoal::Request> recordGoalContract();
+  ContractChecker<RecordWorldState::Request> recordWorldStateContract();
+  /// A query of one run: @p contract with parameter ?run, precondition exists(?run) and @p effects.
+  template <class Request>
+  ContractChecker<Request> runQueryContract(core::Contract contract, std::vector<std::string> effects);
+
+  // The operations' handlers, called once the contract's checks passed (Component::addOperation).
+  /// start_run: resume the latest unfinished run of that name (if asked) or create one; it becomes the current run.
+  void startRun(const StartRun::Request& request, StartRun::Response& response);
+  /// finish_run: mark the run finished or stopped.
+  void finishRun(const FinishRun::Request& request, FinishRun::Response& response);
+  /// record_experiment: store the record in one transaction, then publish the stored form on ~experiments.
+  void recordExperiment(const RecordExperiment::Request& request, RecordExperiment::Response& response);
+  /// get_experiments: the run's records in seq order, optionally of one status.
+  void getExperiments(const GetExperiments::Request& request, GetExperiments::Response& response);
+  /// record_goal: store the outcome of a goal-directed episode.
+  void recordGoal(const RecordGoal::Request& request, RecordGoal::Response& response);
+  /// record_world_state: store XPERSim's world state at a step of the run.
+  void recordWorldState(const RecordWorldState::Request& request, RecordWorldState::Response& response);
+  /// get_world_state: the world state stored for a step of the run, if any.
+  void getWorldState(const GetWorldState::Request& request, GetWorldState::Response& response);
+  /// get_notions: the notions learned in the run.
+  void getNotions(const GetNotions::Request& request, GetNotions::Response& response);
+  /// get_calls: the run's stored calls (after a flush of the buffered ones), filtered.
+  void getCalls(const GetCalls::Request& request, GetCalls::Response& response);
+  /// get_facts: the run's facts (after a flush of the buffered calls).
+  void getFacts(const GetFacts::Request& request, GetFacts::Response& response);
+
   /// The open store, or throws when not configured.
   std::shared_ptr<core::KnowledgeBase> store() const;
   /// @p run_id, or the current run for 0 (throws when there is none).

@@ -15,12 +15,12 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 
-#include "xpersif/component/lockstep_client.h"
 #include "xpersif/PushAction.h"
 #include "xpersif/component/component.h"
 #include "xpersif/embodiment/embodiment_setup.h"
-#include "xpersif/embodiment/robot_pose_source.h"
+#include "xpersif/embodiment/robot_drive.h"
 
 namespace xpersif {
 
@@ -51,7 +51,13 @@ class Manipulation : public Component {
   /// The object as last observed: "" or why it is not known.
   std::string observedObject(const std::string& name, double max_age, core::Obstacle* object) const;
   CommandOutcome push(Push::Context& context, PushResult& result);
-  void publishVelocity(const core::Velocity2D& velocity);
+  /// The push controller's loop along @p plan (approach by @p path, contact, push, retreat): nothing when it is
+  /// done (@p done: its last feedback), else how the command ended (stopped, cancelled, pose lost, failed).
+  std::optional<CommandOutcome> runPush(Push::Context& context, ControlTicker& ticker, const core::PushPlan& plan,
+                                        const core::PathResult& path, PushResult& result, core::PushFeedback* done);
+  /// Let the object settle, then take the first observation after that into @p result (none within the wait is
+  /// no failure); nothing, or how the command ended when it was stopped while the object settled.
+  std::optional<CommandOutcome> observeAfterPush(Push::Context& context, ControlTicker& ticker, PushResult& result);
 
   mutable std::mutex mutex_;
   EmbodimentSetup setup_;
@@ -61,9 +67,7 @@ class Manipulation : public Component {
   double observation_max_age_ = 2.0;
   double settle_time_ = 0.3;
   double max_push_distance_ = 0.0;  ///< set by configure, from the arena
-  std::unique_ptr<RobotPoseSource> pose_source_;
-  std::unique_ptr<LockstepClient> lockstep_;
-  ros::Publisher cmd_vel_pub_;
+  RobotDrive drive_;
 };
 
 }  // namespace xpersif

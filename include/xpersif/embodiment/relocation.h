@@ -21,13 +21,12 @@
 #include <memory>
 #include <mutex>
 
-#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GoToPoseAction.h"
 #include "xpersif/SetMaxVelocity.h"
 #include "xpersif/TurnToAction.h"
 #include "xpersif/component/component.h"
 #include "xpersif/embodiment/embodiment_setup.h"
-#include "xpersif/embodiment/robot_pose_source.h"
+#include "xpersif/embodiment/robot_drive.h"
 
 namespace xpersif {
 
@@ -59,6 +58,18 @@ class Relocation : public Component {
   void onShutdown() override;
 
  private:
+  // The contracts: preconditions checked on arrival (the set-up, the robot's pose, a path).
+  ContractChecker<GoToPoseGoal> goToPoseContract();
+  ContractChecker<TurnToGoal> turnToContract();
+  ContractChecker<SetMaxVelocity::Request> setMaxVelocityContract();
+  ContractChecker<std_srvs::Trigger::Request> stopContract();
+  /// set_max_velocity: a linear speed the wheels can reach, an angular one within reason.
+  void validateMaxVelocity(const SetMaxVelocity::Request& request) const;
+  /// set_max_velocity: the new limits, at once (a running command takes them at its next control period).
+  void setMaxVelocity(const SetMaxVelocity::Request& request, SetMaxVelocity::Response& response);
+  /// stop: a zero velocity now; the running command ends ABORTED.
+  void stop(const std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+
   /// The path to @p target from the current pose: "" and the plan, or why there is none.
   std::string planTo(const GoToPoseGoal& goal, core::PathResult* path) const;
   CommandOutcome goTo(GoToPose::Context& context, GoToPoseResult& result);
@@ -71,7 +82,6 @@ class Relocation : public Component {
                        const std::function<std::string()>& plan, Controller& controller, Record record,
                        std::string& message);
   CommandOutcome turnTo(TurnTo::Context& context, TurnToResult& result);
-  void publishVelocity(const core::Velocity2D& velocity);
   core::MotionLimits limits() const;
 
   mutable std::mutex mutex_;
@@ -82,9 +92,7 @@ class Relocation : public Component {
   double margin_ = 0.01;
   double obstacle_max_age_ = 5.0;
   std::atomic<std::uint64_t> stop_generation_{0};  // bumped by the stop operation
-  std::unique_ptr<RobotPoseSource> pose_source_;
-  std::unique_ptr<LockstepClient> lockstep_;
-  ros::Publisher cmd_vel_pub_;
+  RobotDrive drive_;
 };
 
 /// "(x, y, yaw)" with a few decimals, for contract bindings and messages.

@@ -16,13 +16,13 @@
 
 #include <mutex>
 
-#include "xpersif/component/lockstep_client.h"
 #include "xpersif/GetFeatures.h"
 #include "xpersif/IrRanges.h"
 #include "xpersif/ReadIr.h"
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/frame_schedule.h"
 #include "xpersif/perception/latest_features.h"
 
 namespace xpersif {
@@ -99,10 +99,7 @@ class Perception : public AggregateComponent {
   ros::WallTime last_wall_;
   LatestFeatures features_;
   ros::Publisher image_pub_, info_pub_, features_pub_;
-  ros::Timer timer_;
-  std::unique_ptr<LockstepClient> lockstep_;
-  double next_due_ = 0;  // lockstep: physics time at which the next frame is due
-  std::uint64_t epoch_ = 0;  // lockstep: the world state's epoch the schedule belongs to
+  FrameSchedule schedule_;  // renders tick() on a timer or at the lockstep clock's due ticks
 };
 
 }  // namespace xpersif

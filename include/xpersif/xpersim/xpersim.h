@@ -22,7 +22,9 @@
  */
 #pragma once
 
+#include <geometry_msgs/Twist.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 
 #include <atomic>
 #include <chrono>
@@ -33,7 +35,14 @@
 #include <string>
 #include <thread>
 
+#include "xpersif/GetScene.h"
+#include "xpersif/InjectFault.h"
+#include "xpersif/Lockstep.h"
 #include "xpersif/LockstepDone.h"
+#include "xpersif/SetPose.h"
+#include "xpersif/Step.h"
+#include "xpersif/WheelSpeeds.h"
+#include "xpersif/WorldState.h"
 #include "xpersif/component/component.h"
 #include "xpersif/core/common/lockstep.h"
 #include "xpersif/core/sim/physics_world.h"
@@ -59,7 +68,60 @@ class XPerSim : public Component {
   void fillStatus(ComponentStatus& status) override;
 
  private:
+  struct Settings;
+  /// Bind each operation's contract, validation and handler (below), in the order get_contracts lists them.
   void declareOperations();
+
+  // Contracts whose preconditions look at the world.
+  ContractChecker<Lockstep::Request> lockstepContract();
+  /// checkpoint and restore both change the world's state (a checkpoint restores its own), so both wait for a
+  /// world that stands: @p contract with precondition standing(sim), checked on arrival and again under the lock.
+  ContractChecker<WorldState::Request> standingContract(core::Contract contract);
+  ContractChecker<SetPose::Request> setPoseContract();
+  /// "" when no command moves the world, else why (world_mutex_ held).
+  std::string whyWorldMovesLocked() const;
+  /// Throws core::UnavailableError while a command moves the world (world_mutex_ held).
+  void requireStandingWorldLocked() const;
+  /// set_pose: a known body, a finite pose inside the arena and above the floor.
+  void validateSetPose(const SetPose::Request& request);
+  /// inject_fault: a known body.
+  void validateInjectFault(const InjectFault::Request& request);
+
+  // The operations' handlers, called once the contract's checks passed (Component::addOperation).
+  /// pause: stop advancing simulated time.
+  void pause(const std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+  /// resume: advance simulated time again (a halted world is tried again).
+  void resume(const std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+  /// step: in lockstep with participants, whole ticks through them (waits for them); else pause and step the physics.
+  void step(const Step::Request& request, Step::Response& response);
+  /// lockstep: a participant joins or leaves the clock; answers where the clock stands.
+  void joinOrLeaveLockstep(const Lockstep::Request& request, Lockstep::Response& response);
+  /// reset: the world back to its initial state, at t=0, with a new lineage.
+  void reset(const std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+  /// checkpoint: the world's whole state, from which it goes on as a restored world would.
+  void checkpoint(const WorldState::Request& request, WorldState::Response& response);
+  /// restore: the world back in a state checkpoint gave; the clock never runs backwards.
+  void restore(const WorldState::Request& request, WorldState::Response& response);
+  /// set_pose: place a body (a halted world runs again) and show it at once.
+  void setPose(const SetPose::Request& request, SetPose::Response& response);
+  /// get_scene: the scene description clients render from (also when not ACTIVE).
+  void getScene(const GetScene::Request& request, GetScene::Response& response);
+  /// inject_fault (test hook): a non-finite or huge force on a body.
+  void injectFault(const InjectFault::Request& request, InjectFault::Response& response);
+
+  // Configure's steps.
+  Settings readSettings();
+  /// Clock mode, rates and the lockstep coordinator from @p settings (world_mutex_ held, world_ the new world).
+  void applySettingsLocked(const Settings& settings);
+  /// ~trace_file: open it (appending) or close the old one; throws when it cannot be written.
+  void openTraceLocked(const Settings& settings);
+  /// Advertise the topics and subscribe to the robot's commands (once).
+  void connect();
+  void onCmdVel(const geometry_msgs::Twist::ConstPtr& twist);
+  void onWheelSpeeds(const WheelSpeeds::ConstPtr& speeds);
+  /// A halted world runs again (the user moved or reset it), and whoever waits for it is woken.
+  void unhaltLocked();
+
   void stopThread();
   void loop();
   /// One physics step and whatever is due to be published. Call with world_mutex_ held.
@@ -74,6 +136,11 @@ class XPerSim : public Component {
   double simTimeLocked() const { return world_->time() + idle_time_; }
   /// Lockstep mode: the coordinator's loop (world_mutex_ held while it works, released while it waits).
   void lockstepLoop();
+  /// Drop the participants that owe a report for longer than the timeout, each with a sentence (@p now: wall s).
+  void dropLateLocked(double now);
+  /// Every participant is done with the ACT phase: apply the driving actor's command, advance the physics by one
+  /// tick (an idle tick: the clock only), publish the frame and the sensors, and start the next tick's SENSE phase.
+  void advanceTickLocked(double now);
   void publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh);
   /// Debug aid (~trace_file): one line per event that changes the world, and every body's pose after each
   /// stepped tick, at full precision, so two takes of a campaign can be diffed to their first difference.

@@ -1,0 +1,37 @@
+#include "xpersif/perception/frame_schedule.h"
+
+#include <cmath>
+
+namespace xpersif {
+
+void FrameSchedule::start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate) {
+  rate_ = rate;
+  lockstep_ = std::make_unique<LockstepClient>(nh, private_nh, private_nh.getNamespace(), true);
+  if (!lockstep_->enabled()) {
+    timer_ = private_nh.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { render_(ros::Time()); });
+    return;
+  }
+  next_due_ = 0;
+  lockstep_->onTick([this](LockstepClient& client, const LockstepClient::Tick& t) { onTick(client, t); });
+  lockstep_->join();
+}
+
+void FrameSchedule::stop() {
+  timer_.stop();
+  lockstep_.reset();  // leaves the clock
+}
+
+void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t) {
+  if (t.epoch != epoch_) {  // the world's state was restored: start the schedule again, as a fresh sensor does
+    epoch_ = t.epoch;
+    next_due_ = 0;
+  }
+  if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
+  bool published = false;
+  auto camera = camera_.camera();
+  if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = render_(t.stamp);  // well within the clock's patience
+  if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
+  client.report(t, false, published, {}, next_due_);
+}
+
+}  // namespace xpersif
