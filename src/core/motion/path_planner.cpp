@@ -253,7 +253,7 @@ std::string PathPlanner::checkEnds(const Pose2D& start, const Pose2D& goal) cons
   // The start may be inside the margin (e.g. right after a push) but must not overlap anything.
   constexpr double kSlack = 0.002;  // touching within 2 mm counts as touching, not overlapping
   const double start_clearance = clearance(start.x, start.y);
-  if (start_clearance >= robot_radius_ - kSlack) return "";
+  if (!(start_clearance < robot_radius_ - kSlack)) return "";
   std::ostringstream out;
   out.precision(3);
   out << "the start " << point(start.x, start.y) << " is blocked: the robot there overlaps "
