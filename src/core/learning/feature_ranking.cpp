@@ -85,9 +85,9 @@ std::string checkFeatureRankingOptions(const FeatureRankingOptions& o) {
   return why;
 }
 
-FeatureRanking rankFeatures(const std::vector<PushSample>& samples, const std::vector<std::string>& candidates,
-                            const FeatureRankingOptions& options) {
-  throwIfInvalid(checkFeatureRankingOptions(options));
+namespace {
+
+void checkCandidates(const std::vector<std::string>& candidates) {
   if (candidates.empty()) throw ValidationError("no candidate features to rank; name at least one (e.g. hue, size)");
   throwIfInvalid(checkMaxSize("candidates", candidates.size(), kMaxExtraFeatures));
   for (std::size_t j = 0; j < candidates.size(); ++j) {
@@ -97,13 +97,15 @@ FeatureRanking rankFeatures(const std::vector<PushSample>& samples, const std::v
       throw ValidationError("candidates[" + std::to_string(j) + "] '" + candidates[j] + "' is named twice");
     }
   }
-  if (samples.size() < kMinRankingRows) {
-    throw ValidationError("ranking features needs at least " + std::to_string(kMinRankingRows) +
-                          " pushes that carry every candidate; there are " + std::to_string(samples.size()));
-  }
+}
+
+/// The samples as rows: @p x the push's columns then the candidates', @p y the outcome (dx, dy, dyaw).
+void sampleMatrices(const std::vector<PushSample>& samples, const std::vector<std::string>& candidates, cv::Mat& x,
+                    cv::Mat& y) {
   const int n = static_cast<int>(samples.size());
   const int d = kPushColumns + static_cast<int>(candidates.size());
-  cv::Mat x(n, d, CV_32F), y(n, kOutputs, CV_32F);
+  x.create(n, d, CV_32F);
+  y.create(n, kOutputs, CV_32F);
   for (int i = 0; i < n; ++i) {
     const PushSample& s = samples[static_cast<std::size_t>(i)];
     const std::string field = "samples[" + std::to_string(i) + "]";
@@ -127,55 +129,55 @@ FeatureRanking rankFeatures(const std::vector<PushSample>& samples, const std::v
     y.at<float>(i, 1) = static_cast<float>(s.outcome.dy);
     y.at<float>(i, 2) = static_cast<float>(s.outcome.dyaw);
   }
+}
 
-  const std::size_t folds = std::min<std::size_t>(options.folds, samples.size());
-  std::vector<double> rise(candidates.size(), 0.0);
-  int outputs_used = 0;
-  SplitMix permutations{options.seed ^ 0x5EEDF00Dull};
-  for (int k = 0; k < kOutputs; ++k) {
-    const cv::Mat column = y.col(k);
-    cv::Scalar mean, stddev;
-    cv::meanStdDev(column, mean, stddev);
-    const double variance = stddev[0] * stddev[0];
-    if (!(variance > 0)) continue;  // an outcome that never varies says nothing about any feature
-    ++outputs_used;
-    std::vector<double> output_rise(candidates.size(), 0.0);
-    for (std::size_t f = 0; f < folds; ++f) {
-      cv::Mat train_x, train_y;
-      std::vector<int> held;
-      for (int i = 0; i < n; ++i) {
-        if (static_cast<std::size_t>(i) % folds == f) {
-          held.push_back(i);
-        } else {
-          train_x.push_back(x.row(i));
-          train_y.push_back(column.row(i));
-        }
-      }
-      const Regressor model = train(train_x, train_y, options, static_cast<std::uint64_t>(k * 1000 + f));
-      double base = 0;
-      for (int i : held) {
-        const double e = model.predict(x.row(i)) - column.at<float>(i);
-        base += e * e;
-      }
-      for (std::size_t j = 0; j < candidates.size(); ++j) {
-        const int c = kPushColumns + static_cast<int>(j);
-        double shuffled = 0;
-        for (std::size_t r = 0; r < options.repeats; ++r) {
-          for (int i : held) {
-            cv::Mat row = x.row(i).clone();
-            row.at<float>(0, c) = x.at<float>(static_cast<int>(permutations.below(samples.size())), c);
-            const double e = model.predict(row) - column.at<float>(i);
-            shuffled += e * e;
-          }
-        }
-        output_rise[j] += (shuffled / static_cast<double>(options.repeats) - base) / variance;
+/// Output @p k's rise in held-out squared error, summed over the folds, when each candidate's column is shuffled
+/// (from @p permutations), relative to the output's @p variance: a forest per fold, trained on the other folds.
+std::vector<double> permutationRise(const cv::Mat& x, const cv::Mat& column, double variance, int k,
+                                    std::size_t candidates, const FeatureRankingOptions& options,
+                                    SplitMix& permutations) {
+  const int n = x.rows;
+  const std::size_t folds = std::min<std::size_t>(options.folds, static_cast<std::size_t>(n));
+  std::vector<double> output_rise(candidates, 0.0);
+  for (std::size_t f = 0; f < folds; ++f) {
+    cv::Mat train_x, train_y;
+    std::vector<int> held;
+    for (int i = 0; i < n; ++i) {
+      if (static_cast<std::size_t>(i) % folds == f) {
+        held.push_back(i);
+      } else {
+        train_x.push_back(x.row(i));
+        train_y.push_back(column.row(i));
       }
     }
-    for (std::size_t j = 0; j < candidates.size(); ++j) rise[j] += output_rise[j] / static_cast<double>(n);
+    const Regressor model = train(train_x, train_y, options, static_cast<std::uint64_t>(k * 1000 + f));
+    double base = 0;
+    for (int i : held) {
+      const double e = model.predict(x.row(i)) - column.at<float>(i);
+      base += e * e;
+    }
+    for (std::size_t j = 0; j < candidates; ++j) {
+      const int c = kPushColumns + static_cast<int>(j);
+      double shuffled = 0;
+      for (std::size_t r = 0; r < options.repeats; ++r) {
+        for (int i : held) {
+          cv::Mat row = x.row(i).clone();
+          row.at<float>(0, c) = x.at<float>(static_cast<int>(permutations.below(static_cast<std::size_t>(n))), c);
+          const double e = model.predict(row) - column.at<float>(i);
+          shuffled += e * e;
+        }
+      }
+      output_rise[j] += (shuffled / static_cast<double>(options.repeats) - base) / variance;
+    }
   }
+  return output_rise;
+}
 
+/// Scores (the mean rise over the outputs used, at least 0), best first, and the chosen names.
+FeatureRanking rankingOf(const std::vector<double>& rise, int outputs_used, const std::vector<std::string>& candidates,
+                         std::size_t rows, const FeatureRankingOptions& options) {
   FeatureRanking ranking;
-  ranking.rows = samples.size();
+  ranking.rows = rows;
   for (std::size_t j = 0; j < candidates.size(); ++j) {
     const double score = outputs_used > 0 ? std::max(0.0, rise[j] / outputs_used) : 0.0;
     ranking.scores.push_back({candidates[j], score});
@@ -187,6 +189,36 @@ FeatureRanking rankFeatures(const std::vector<PushSample>& samples, const std::v
     ranking.chosen.push_back(s.name);
   }
   return ranking;
+}
+
+}  // namespace
+
+FeatureRanking rankFeatures(const std::vector<PushSample>& samples, const std::vector<std::string>& candidates,
+                            const FeatureRankingOptions& options) {
+  throwIfInvalid(checkFeatureRankingOptions(options));
+  checkCandidates(candidates);
+  if (samples.size() < kMinRankingRows) {
+    throw ValidationError("ranking features needs at least " + std::to_string(kMinRankingRows) +
+                          " pushes that carry every candidate; there are " + std::to_string(samples.size()));
+  }
+  cv::Mat x, y;
+  sampleMatrices(samples, candidates, x, y);
+  const int n = x.rows;
+  std::vector<double> rise(candidates.size(), 0.0);
+  int outputs_used = 0;
+  SplitMix permutations{options.seed ^ 0x5EEDF00Dull};
+  for (int k = 0; k < kOutputs; ++k) {
+    const cv::Mat column = y.col(k);
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(column, mean, stddev);
+    const double variance = stddev[0] * stddev[0];
+    if (!(variance > 0)) continue;  // an outcome that never varies says nothing about any feature
+    ++outputs_used;
+    const std::vector<double> output_rise =
+        permutationRise(x, column, variance, k, candidates.size(), options, permutations);
+    for (std::size_t j = 0; j < candidates.size(); ++j) rise[j] += output_rise[j] / static_cast<double>(n);
+  }
+  return rankingOf(rise, outputs_used, candidates, samples.size(), options);
 }
 
 }  // namespace xpersif::core

@@ -144,6 +144,94 @@ Velocity2D GoToPoseController::limit(Velocity2D wanted, double dt) {
   return last_command_;
 }
 
+namespace {
+
+// Heading error towards the target point at @p bearing, forwards or (when reversing) backwards.
+double headingError(double bearing, const Pose2D& current, bool reverse) {
+  return normalizeAngle(bearing + (reverse ? kPi : 0.0) - current.yaw);
+}
+
+}  // namespace
+
+void GoToPoseController::advancePhase(const Pose2D& current, double bearing, double distance, double yaw_error) {
+  const double tol = options_.position_tolerance;
+  if (phase_ == MotionPhase::TurnToTarget || phase_ == MotionPhase::Drive) {
+    // Within the tolerance is not enough for a precise goal: keep going until the target is no longer
+    // ahead (or very close), so that the robot stops near the centre of the tolerance, not at its edge.
+    const double along = distance * std::cos(headingError(bearing, current, reverse_));
+    const bool arrived = distance <= tol && (!options_.align_yaw || along <= 0.001 || distance <= 0.3 * tol);
+    if (arrived) {
+      phase_ = options_.align_yaw ? MotionPhase::FinalTurn : MotionPhase::Done;
+      last_yaw_error_ = yaw_error;
+    }
+  } else if (phase_ == MotionPhase::FinalTurn && distance > 2.0 * tol) {
+    phase_ = MotionPhase::TurnToTarget;  // pushed off the spot: go back to it
+  }
+  if (phase_ == MotionPhase::Done) return;
+
+  if (phase_ == MotionPhase::TurnToTarget) {
+    // Decide the driving direction once per approach: backwards only for short targets behind.
+    const bool behind = std::fabs(headingError(bearing, current, false)) > kPi / 2.0;
+    reverse_ = options_.allow_reverse && behind && distance <= options_.reverse_max_distance;
+  }
+  if (phase_ == MotionPhase::Drive && std::fabs(headingError(bearing, current, reverse_)) > kTurnAgain) {
+    // Far off the line (e.g. overshot sideways near the target): turn in place again.
+    phase_ = MotionPhase::TurnToTarget;
+    reverse_ = options_.allow_reverse && std::fabs(headingError(bearing, current, false)) > kPi / 2.0 &&
+               distance <= options_.reverse_max_distance;
+  }
+  if (phase_ == MotionPhase::TurnToTarget && std::fabs(headingError(bearing, current, reverse_)) < kStartDriving) {
+    phase_ = MotionPhase::Drive;
+  }
+}
+
+bool GoToPoseController::stalled(const Pose2D& current, double bearing, double distance, double yaw_error, double dt) {
+  // The phase's own error must shrink by 1 mm or 1 deg every stall_time seconds (the angle baseline restarts
+  // with each phase: it measures a different angle).
+  if (phase_ != watched_phase_) {
+    watched_phase_ = phase_;
+    best_yaw_error_ = std::numeric_limits<double>::infinity();
+    since_progress_ = 0;
+  }
+  const double angle_metric = phase_ == MotionPhase::FinalTurn ? std::fabs(yaw_error)
+                                                               : std::fabs(headingError(bearing, current, reverse_));
+  if (distance < best_distance_ - 0.001 || angle_metric < best_yaw_error_ - kPi / 180.0) {
+    best_distance_ = std::min(best_distance_, distance);
+    best_yaw_error_ = std::min(best_yaw_error_, angle_metric);
+    since_progress_ = 0;
+  } else {
+    since_progress_ += dt;
+  }
+  return options_.stall_time > 0 && since_progress_ > options_.stall_time;
+}
+
+Velocity2D GoToPoseController::approachCommand(const Pose2D& current, double bearing, double distance) const {
+  Velocity2D wanted;
+  const double e = headingError(bearing, current, reverse_);
+  if (phase_ == MotionPhase::TurnToTarget) {
+    wanted.angular = turnRate(e, limits_);
+    return wanted;
+  }
+  const double along = distance * std::cos(e);  // >= 0 while the target is ahead (behind, when reversing)
+  double speed = std::min({kLinearGain * std::fabs(along), brakeProfile(along, limits_.max_linear_acceleration),
+                           limits_.max_linear});
+  speed = std::max(speed, std::min(kMinLinear, limits_.max_linear));
+  if (along < 0) speed = -speed;  // overshot: back up along the heading
+  wanted.linear = reverse_ ? -speed : speed;
+  // Heading correction towards the point; it fades out near the point, where the bearing gets jumpy.
+  const double steer = along < 0 ? normalizeAngle(e - kPi) : e;
+  wanted.angular = kHeadingGain * steer * std::min(1.0, distance / kSteerFade);
+  return wanted;
+}
+
+bool GoToPoseController::finalTurnDone(double yaw_error) {
+  // Done inside the tolerance once close to its centre or once the error changed sign (turned past it).
+  const bool crossed = (yaw_error > 0) != (last_yaw_error_ > 0);
+  last_yaw_error_ = yaw_error;
+  const double abs_error = std::fabs(yaw_error);
+  return abs_error <= options_.yaw_tolerance && (crossed || abs_error <= options_.yaw_tolerance / 3.0);
+}
+
 MotionFeedback GoToPoseController::update(const Pose2D& current, double dt) {
   requireUpdateInput(current, dt);
   const double dx = goal_.x - current.x, dy = goal_.y - current.y;
@@ -158,88 +246,22 @@ MotionFeedback GoToPoseController::update(const Pose2D& current, double dt) {
                       " m and " + num(yaw_error) + " rad still to go)",
                   distance, yaw_error);
   }
-
-  const double tol = options_.position_tolerance;
-  // Heading error towards the target point, forwards or (when reversing) backwards.
   const double bearing = std::atan2(dy, dx);
-  auto headingError = [&](bool reverse) { return normalizeAngle(bearing + (reverse ? kPi : 0.0) - current.yaw); };
-
-  if (phase_ == MotionPhase::TurnToTarget || phase_ == MotionPhase::Drive) {
-    // Within the tolerance is not enough for a precise goal: keep going until the target is no longer
-    // ahead (or very close), so that the robot stops near the centre of the tolerance, not at its edge.
-    const double along = distance * std::cos(headingError(reverse_));
-    const bool arrived = distance <= tol && (!options_.align_yaw || along <= 0.001 || distance <= 0.3 * tol);
-    if (arrived) {
-      phase_ = options_.align_yaw ? MotionPhase::FinalTurn : MotionPhase::Done;
-      last_yaw_error_ = yaw_error;
-    }
-  } else if (phase_ == MotionPhase::FinalTurn && distance > 2.0 * tol) {
-    phase_ = MotionPhase::TurnToTarget;  // pushed off the spot: go back to it
-  }
+  advancePhase(current, bearing, distance, yaw_error);
   if (phase_ == MotionPhase::Done) return finish(MotionPhase::Done, "", distance, yaw_error);
-
-  if (phase_ == MotionPhase::TurnToTarget) {
-    // Decide the driving direction once per approach: backwards only for short targets behind.
-    const bool behind = std::fabs(headingError(false)) > kPi / 2.0;
-    reverse_ = options_.allow_reverse && behind && distance <= options_.reverse_max_distance;
-  }
-  const double heading_error = headingError(reverse_);
-  if (phase_ == MotionPhase::Drive && std::fabs(heading_error) > kTurnAgain) {
-    // Far off the line (e.g. overshot sideways near the target): turn in place again.
-    phase_ = MotionPhase::TurnToTarget;
-    reverse_ = options_.allow_reverse && std::fabs(headingError(false)) > kPi / 2.0 &&
-               distance <= options_.reverse_max_distance;
-  }
-  if (phase_ == MotionPhase::TurnToTarget && std::fabs(headingError(reverse_)) < kStartDriving) {
-    phase_ = MotionPhase::Drive;
-  }
-
-  // Progress watch: the phase's own error must shrink by 1 mm or 1 deg every stall_time seconds (the angle
-  // baseline restarts with each phase: it measures a different angle).
-  if (phase_ != watched_phase_) {
-    watched_phase_ = phase_;
-    best_yaw_error_ = std::numeric_limits<double>::infinity();
-    since_progress_ = 0;
-  }
-  const double angle_metric =
-      phase_ == MotionPhase::FinalTurn ? std::fabs(yaw_error) : std::fabs(headingError(reverse_));
-  if (distance < best_distance_ - 0.001 || angle_metric < best_yaw_error_ - kPi / 180.0) {
-    best_distance_ = std::min(best_distance_, distance);
-    best_yaw_error_ = std::min(best_yaw_error_, angle_metric);
-    since_progress_ = 0;
-  } else {
-    since_progress_ += dt;
-  }
-  if (options_.stall_time > 0 && since_progress_ > options_.stall_time) {
+  if (stalled(current, bearing, distance, yaw_error, dt)) {
     return finish(MotionPhase::Failed,
                   "no progress for " + num(options_.stall_time) + " s in phase " + toString(phase_) + " at " +
                       point(current.x, current.y) + ", " + num(distance) +
                       " m from the goal: something blocks the robot or its wheels slip",
                   distance, yaw_error);
   }
-
   Velocity2D wanted;
-  if (phase_ == MotionPhase::TurnToTarget) {
-    wanted.angular = turnRate(headingError(reverse_), limits_);
-  } else if (phase_ == MotionPhase::Drive) {
-    const double e = headingError(reverse_);
-    const double along = distance * std::cos(e);  // >= 0 while the target is ahead (behind, when reversing)
-    double speed = std::min({kLinearGain * std::fabs(along),
-                             brakeProfile(along, limits_.max_linear_acceleration), limits_.max_linear});
-    speed = std::max(speed, std::min(kMinLinear, limits_.max_linear));
-    if (along < 0) speed = -speed;  // overshot: back up along the heading
-    wanted.linear = reverse_ ? -speed : speed;
-    // Heading correction towards the point; it fades out near the point, where the bearing gets jumpy.
-    const double steer = along < 0 ? normalizeAngle(e - kPi) : e;
-    wanted.angular = kHeadingGain * steer * std::min(1.0, distance / kSteerFade);
-  } else {  // FinalTurn
-    // Done inside the tolerance once close to its centre or once the error changed sign (turned past it).
-    const bool crossed = (yaw_error > 0) != (last_yaw_error_ > 0);
-    last_yaw_error_ = yaw_error;
-    const double abs_error = std::fabs(yaw_error);
-    if (abs_error <= options_.yaw_tolerance && (crossed || abs_error <= options_.yaw_tolerance / 3.0)) {
-      return finish(MotionPhase::Done, "", distance, yaw_error);
-    }
+  if (phase_ != MotionPhase::FinalTurn) {
+    wanted = approachCommand(current, bearing, distance);
+  } else if (finalTurnDone(yaw_error)) {
+    return finish(MotionPhase::Done, "", distance, yaw_error);
+  } else {
     wanted.angular = turnRate(yaw_error, limits_);
   }
 

@@ -27,65 +27,100 @@ std::string PushOptions::check() const {
 
 std::string checkPushSide(const std::string& side) { return checkOneOf("side", side, pushSides()); }
 
-PushPlan planPush(const Obstacle& object, const PushRequest& request, double robot_radius,
-                  const ArenaGeometry& arena, const std::vector<Obstacle>& others, const PushOptions& options) {
-  PushPlan plan;
-  plan.object = request.object.empty() ? object.name : request.object;
-  plan.side = request.side;
-  plan.offset = request.offset;
-  plan.distance = request.distance;
-  auto reject = [&](const std::string& reason) {
-    plan.ok = false;
-    plan.reason = reason;
-    return plan;
-  };
-  if (std::string p = options.check(); !p.empty()) return reject(p);
-  if (std::string p = arena.check(); !p.empty()) return reject(p);
-  if (std::string p = checkPositive("robot_radius", robot_radius); !p.empty()) return reject(p);
-  if (std::string p = checkPose(plan.object, Pose2D{object.x, object.y, object.yaw}); !p.empty()) return reject(p);
-  if (std::string p = object.footprint.check(plan.object + ".footprint"); !p.empty()) return reject(p);
-  if (std::string p = checkPushSide(request.side); !p.empty()) return reject(p);
-  if (std::string p = checkPositive("distance", request.distance); !p.empty()) return reject(p);
+namespace {
+
+// The straight line the robot's centre follows through a push: at(0) is the contact pose, s the distance
+// along the push direction (negative before the contact).
+struct PushLine {
+  double cx, cy;     // the robot's centre at contact
+  double dx, dy;     // the push direction, a unit vector
+  double direction;  // its angle
+  Pose2D at(double s) const { return Pose2D{cx + s * dx, cy + s * dy, direction}; }
+};
+
+// "" when the request and the setting are valid (the push may still be impossible there), else why not.
+std::string checkPushRequest(const Obstacle& object, const PushRequest& request, const std::string& name,
+                             double robot_radius, const ArenaGeometry& arena, const PushOptions& options) {
+  if (std::string p = options.check(); !p.empty()) return p;
+  if (std::string p = arena.check(); !p.empty()) return p;
+  if (std::string p = checkPositive("robot_radius", robot_radius); !p.empty()) return p;
+  if (std::string p = checkPose(name, Pose2D{object.x, object.y, object.yaw}); !p.empty()) return p;
+  if (std::string p = object.footprint.check(name + ".footprint"); !p.empty()) return p;
+  if (std::string p = checkPushSide(request.side); !p.empty()) return p;
+  if (std::string p = checkPositive("distance", request.distance); !p.empty()) return p;
   if (request.distance > options.max_distance) {
-    return reject("distance is " + num(request.distance) + " m; a push may be at most " + num(options.max_distance) +
-                  " m long");
+    return "distance is " + num(request.distance) + " m; a push may be at most " + num(options.max_distance) +
+           " m long";
   }
   const Footprint& shape = object.footprint;
   const double max_offset = maxPushOffset(shape, request.side);
   if (std::string p = checkInRange("offset", request.offset, -max_offset, max_offset); !p.empty()) {
-    return reject(p + " (" + plan.object + " is " + shape.describe() +
-                  (shape.isDisc() ? ": the contact must stay within half its radius of the push line, on its front)"
-                                  : ": the contact must stay on the face)"));
+    return p + " (" + name + " is " + shape.describe() +
+           (shape.isDisc() ? ": the contact must stay within half its radius of the push line, on its front)"
+                           : ": the contact must stay on the face)");
   }
+  return "";
+}
 
+PushLine pushLine(const Obstacle& object, const PushRequest& request, double robot_radius) {
   // Push direction: the inward normal of the pushed face, in the world frame.
   double local = 0;
   if (request.side == "+x") local = kPi;
   if (request.side == "-y") local = kPi / 2.0;
   if (request.side == "+y") local = -kPi / 2.0;
-  plan.direction = normalizeAngle(object.yaw + local);
-  const double dx = std::cos(plan.direction), dy = std::sin(plan.direction);
-  const double lx = -dy, ly = dx;  // left of the push direction
+  PushLine line;
+  line.direction = normalizeAngle(object.yaw + local);
+  line.dx = std::cos(line.direction);
+  line.dy = std::sin(line.direction);
+  const double lx = -line.dy, ly = line.dx;  // left of the push direction
   // Robot centre at contact, relative to the object's centre: `back` behind it along the push, `lateral` to
   // the left. A flat face is touched at the point straight ahead of the robot's centre. Two touching discs
   // touch on their centre line, at the object's radius R from its centre out of R + robot_radius: for the
   // contact to lie `offset` off the push line, the robot's centre lies offset * (R + robot_radius) / R off it.
+  const Footprint& shape = object.footprint;
   double back = shape.depth(request.side) + robot_radius, lateral = request.offset;
   if (shape.isDisc()) {
     const double reach = shape.radius + robot_radius;
     lateral = request.offset * reach / shape.radius;
     back = std::sqrt(reach * reach - lateral * lateral);
   }
-  const double cx = object.x - back * dx + lateral * lx;
-  const double cy = object.y - back * dy + lateral * ly;
-  auto along = [&](double s) { return Pose2D{cx + s * dx, cy + s * dy, plan.direction}; };
-  plan.contact = along(0);
-  plan.approach = along(-options.standoff);
-  plan.push_end = along(request.distance);
-  plan.retreat = along(request.distance - options.retreat);
-  plan.object_end = Pose2D{object.x + request.distance * dx, object.y + request.distance * dy, object.yaw};
+  line.cx = object.x - back * line.dx + lateral * lx;
+  line.cy = object.y - back * line.dy + lateral * ly;
+  return line;
+}
 
-  const std::string what = "the " + request.side + (shape.isDisc() ? " side" : " face") + " of " + plan.object;
+// "" when neither the robot (from the approach on) nor the object (from the contact on) hits one of @p rest
+// along the push line, else which and how. The object's footprint is taken as its circumscribed disc:
+// conservative, since the object may turn while pushed.
+std::string checkSweptPath(const PushPlan& plan, const PushLine& line, const Obstacle& object,
+                           const std::vector<Obstacle>& rest, double robot_radius, const PushOptions& options,
+                           const std::string& what) {
+  const double object_radius = object.footprint.circumradius();
+  const int samples = static_cast<int>(std::ceil((plan.distance + options.standoff) / 0.002));
+  for (int s = 0; s <= samples; ++s) {
+    const double t = -options.standoff + (plan.distance + options.standoff) * s / samples;
+    const Pose2D r = line.at(t);
+    for (const auto& o : rest) {
+      if (distanceToObstacle(o, r.x, r.y) < robot_radius + 0.002) {
+        return "the robot would hit " + o.name + " while pushing " + what;
+      }
+      if (t >= 0) {
+        const double ox = object.x + t * line.dx, oy = object.y + t * line.dy;
+        if (distanceToObstacle(o, ox, oy) < object_radius + options.object_clearance) {
+          return "pushing " + plan.object + " " + num(plan.distance) + " m from " + what + " would push it into " +
+                 o.name;
+        }
+      }
+    }
+  }
+  return "";
+}
+
+// "" when the push fits in the arena beside the other obstacles, else why not.
+std::string checkPushRoom(const PushPlan& plan, const PushLine& line, const Obstacle& object, double robot_radius,
+                          const ArenaGeometry& arena, const std::vector<Obstacle>& others, const PushOptions& options) {
+  const Footprint& shape = object.footprint;
+  const std::string what = "the " + plan.side + (shape.isDisc() ? " side" : " face") + " of " + plan.object;
   PathPlanner space(arena, robot_radius, options.margin);
   std::vector<Obstacle> rest;
   for (const auto& o : others) {
@@ -93,7 +128,7 @@ PushPlan planPush(const Obstacle& object, const PushRequest& request, double rob
   }
   space.setObstacles(rest);
   if (std::string p = space.checkFree(plan.approach.x, plan.approach.y); !p.empty()) {
-    return reject("the approach spot before " + what + " cannot be used: " + p);
+    return "the approach spot before " + what + " cannot be used: " + p;
   }
   // The object must stay clear of the walls (its footprint's extent along x and y) ...
   double ex = 0, ey = 0;
@@ -101,35 +136,39 @@ PushPlan planPush(const Obstacle& object, const PushRequest& request, double rob
   const double room_x = arena.size_x / 2.0 - ex - options.object_clearance;
   const double room_y = arena.size_y / 2.0 - ey - options.object_clearance;
   if (std::fabs(plan.object_end.x) > room_x || std::fabs(plan.object_end.y) > room_y) {
-    return reject("pushing " + plan.object + " " + num(request.distance) + " m from " + what +
-                  " would push it into the wall (it would end at " + point(plan.object_end.x, plan.object_end.y) +
-                  ", beyond the " + num(options.object_clearance) + " m kept from the walls)");
+    return "pushing " + plan.object + " " + num(plan.distance) + " m from " + what +
+           " would push it into the wall (it would end at " + point(plan.object_end.x, plan.object_end.y) +
+           ", beyond the " + num(options.object_clearance) + " m kept from the walls)";
   }
   // ... and the robot must not reach a wall either.
   if (std::string p = checkTargetInArena(arena, plan.push_end.x, plan.push_end.y, robot_radius, 0.0); !p.empty()) {
-    return reject("the robot would hit the wall while pushing " + plan.object + ": " + p);
+    return "the robot would hit the wall while pushing " + plan.object + ": " + p;
   }
-  // Neither the object's nor the robot's swept path may hit another obstacle (the object's footprint is
-  // taken as its circumscribed disc: conservative, since the object may turn while pushed).
-  const double object_radius = shape.circumradius();
-  const int samples = static_cast<int>(std::ceil((request.distance + options.standoff) / 0.002));
-  for (int s = 0; s <= samples; ++s) {
-    const double t = -options.standoff + (request.distance + options.standoff) * s / samples;
-    const Pose2D r = along(t);
-    for (const auto& o : rest) {
-      if (distanceToObstacle(o, r.x, r.y) < robot_radius + 0.002) {
-        return reject("the robot would hit " + o.name + " while pushing " + what);
-      }
-      if (t >= 0) {
-        const double ox = object.x + t * dx, oy = object.y + t * dy;
-        if (distanceToObstacle(o, ox, oy) < object_radius + options.object_clearance) {
-          return reject("pushing " + plan.object + " " + num(request.distance) + " m from " + what +
-                        " would push it into " + o.name);
-        }
-      }
-    }
-  }
-  plan.ok = true;
+  return checkSweptPath(plan, line, object, rest, robot_radius, options, what);
+}
+
+}  // namespace
+
+PushPlan planPush(const Obstacle& object, const PushRequest& request, double robot_radius,
+                  const ArenaGeometry& arena, const std::vector<Obstacle>& others, const PushOptions& options) {
+  PushPlan plan;
+  plan.object = request.object.empty() ? object.name : request.object;
+  plan.side = request.side;
+  plan.offset = request.offset;
+  plan.distance = request.distance;
+  plan.reason = checkPushRequest(object, request, plan.object, robot_radius, arena, options);
+  if (!plan.reason.empty()) return plan;
+
+  const PushLine line = pushLine(object, request, robot_radius);
+  plan.direction = line.direction;
+  plan.contact = line.at(0);
+  plan.approach = line.at(-options.standoff);
+  plan.push_end = line.at(request.distance);
+  plan.retreat = line.at(request.distance - options.retreat);
+  plan.object_end =
+      Pose2D{object.x + request.distance * line.dx, object.y + request.distance * line.dy, object.yaw};
+  plan.reason = checkPushRoom(plan, line, object, robot_radius, arena, others, options);
+  plan.ok = plan.reason.empty();
   return plan;
 }
 
@@ -256,52 +295,31 @@ PushFeedback PushController::lineControl(const Pose2D& current, double dt, const
   return fb;
 }
 
-PushFeedback PushController::update(const Pose2D& current, double dt) {
-  requireUpdateInput(current, dt);
-  if (!active()) {
-    PushFeedback fb;
-    fb.phase = phase_;
-    fb.done = phase_ == PushPhase::Done;
-    fb.failed = phase_ == PushPhase::Failed;
-    fb.reason = reason_;
-    fb.progress = phase_ == PushPhase::Done ? 1.0 : progress_;
-    return fb;
-  }
-  elapsed_ += dt;
-  if (options_.timeout > 0 && elapsed_ > options_.timeout) {
-    return fail("not finished within the timeout of " + num(options_.timeout) + " s");
-  }
-  const double standoff =
-      std::hypot(plan_.contact.x - plan_.approach.x, plan_.contact.y - plan_.approach.y);
-  const double back = std::hypot(plan_.push_end.x - plan_.retreat.x, plan_.push_end.y - plan_.retreat.y);
-  const double dx = std::cos(plan_.direction), dy = std::sin(plan_.direction);
-  const double pushed = (current.x - plan_.contact.x) * dx + (current.y - plan_.contact.y) * dy;
-
+PushFeedback PushController::idleFeedback() const {
   PushFeedback fb;
-  double done_length = 0;  // for progress
-  auto share = [&](double length) {
-    return total_length_ > 0 ? std::clamp(length / total_length_, 0.0, 1.0) : 0.0;
-  };
-  if (phase_ == PushPhase::Approach) {
-    MotionFeedback m = follower_.update(current, dt);
-    if (approach_length_ < 0) {
-      approach_length_ = m.distance_remaining;
-      total_length_ = approach_length_ + standoff + plan_.distance + back;
-    }
-    if (m.failed) return fail(m.reason);
-    if (!m.done) {
-      fb.command = last_command_ = m.command;
-      fb.phase = phase_;
-      done_length = std::max(0.0, approach_length_ - m.distance_remaining);
-      fb.progress = progress_ = std::max(progress_, share(done_length));
-      return fb;
-    }
-    phase_ = PushPhase::Contact;
-    best_along_ = -std::numeric_limits<double>::infinity();
-    since_progress_ = 0;
-  }
+  fb.phase = phase_;
+  fb.done = phase_ == PushPhase::Done;
+  fb.failed = phase_ == PushPhase::Failed;
+  fb.reason = reason_;
+  fb.progress = phase_ == PushPhase::Done ? 1.0 : progress_;
+  return fb;
+}
 
-  double along = 0;
+double PushController::share(double length) const {
+  return total_length_ > 0 ? std::clamp(length / total_length_, 0.0, 1.0) : 0.0;
+}
+
+PushFeedback PushController::approachFeedback(const MotionFeedback& m) {
+  PushFeedback fb;
+  fb.command = last_command_ = m.command;
+  fb.phase = phase_;
+  const double done_length = std::max(0.0, approach_length_ - m.distance_remaining);
+  fb.progress = progress_ = std::max(progress_, share(done_length));
+  return fb;
+}
+
+PushFeedback PushController::followLine(const Pose2D& current, double dt, double pushed, double& along) {
+  PushFeedback fb;
   if (phase_ == PushPhase::Contact) {
     fb = lineControl(current, dt, plan_.contact, options_.contact_speed, false, false, along);
     if (along >= 0) phase_ = PushPhase::Push;
@@ -326,9 +344,12 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
       fb.blocked = blocked_;
       fb.progress = 1.0;
       fb.pushed = pushed_most_;
-      return fb;
     }
   }
+  return fb;
+}
+
+bool PushController::stalled(double along, double dt) {
   // Progress along the line must go on (1 mm per stall_time).
   if (along > best_along_ + 0.001) {
     best_along_ = along;
@@ -336,28 +357,68 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
   } else {
     since_progress_ += dt;
   }
-  if (options_.stall_time > 0 && since_progress_ > options_.stall_time) {
+  return options_.stall_time > 0 && since_progress_ > options_.stall_time;
+}
+
+void PushController::backOff(double pushed, double back) {
+  blocked_ = true;
+  const double dx = std::cos(plan_.direction), dy = std::sin(plan_.direction);
+  const double from = std::max(0.0, pushed) - back;
+  plan_.retreat = {plan_.contact.x + from * dx, plan_.contact.y + from * dy, plan_.direction};
+  phase_ = PushPhase::Retreat;
+  best_along_ = -std::numeric_limits<double>::infinity();
+  since_progress_ = 0;
+}
+
+double PushController::doneLength(double pushed, double standoff, double back) const {
+  if (phase_ == PushPhase::Contact) return approach_length_ + standoff + std::min(0.0, pushed);
+  if (phase_ == PushPhase::Push) return approach_length_ + standoff + std::clamp(pushed, 0.0, plan_.distance);
+  if (phase_ == PushPhase::Retreat) {
+    return approach_length_ + standoff + plan_.distance + std::clamp(plan_.distance - pushed, 0.0, back);
+  }
+  return 0;
+}
+
+PushFeedback PushController::update(const Pose2D& current, double dt) {
+  requireUpdateInput(current, dt);
+  if (!active()) return idleFeedback();
+  elapsed_ += dt;
+  if (options_.timeout > 0 && elapsed_ > options_.timeout) {
+    return fail("not finished within the timeout of " + num(options_.timeout) + " s");
+  }
+  const double standoff =
+      std::hypot(plan_.contact.x - plan_.approach.x, plan_.contact.y - plan_.approach.y);
+  const double back = std::hypot(plan_.push_end.x - plan_.retreat.x, plan_.push_end.y - plan_.retreat.y);
+  const double dx = std::cos(plan_.direction), dy = std::sin(plan_.direction);
+  const double pushed = (current.x - plan_.contact.x) * dx + (current.y - plan_.contact.y) * dy;
+
+  if (phase_ == PushPhase::Approach) {
+    MotionFeedback m = follower_.update(current, dt);
+    if (approach_length_ < 0) {
+      approach_length_ = m.distance_remaining;
+      total_length_ = approach_length_ + standoff + plan_.distance + back;
+    }
+    if (m.failed) return fail(m.reason);
+    if (!m.done) return approachFeedback(m);
+    phase_ = PushPhase::Contact;
+    best_along_ = -std::numeric_limits<double>::infinity();
+    since_progress_ = 0;
+  }
+  double along = 0;
+  PushFeedback fb = followLine(current, dt, pushed, along);
+  if (fb.done) return fb;
+  if (stalled(along, dt)) {
     if (phase_ != PushPhase::Push) {
       return fail("no progress along the push line for " + num(options_.stall_time) +
                   " s: something blocks the robot, or its wheels slip");
     }
     // The object resists (too heavy, or held): that is an outcome, not a failure. Back off from here.
-    blocked_ = true;
-    const double from = std::max(0.0, pushed) - back;
-    plan_.retreat = {plan_.contact.x + from * dx, plan_.contact.y + from * dy, plan_.direction};
-    phase_ = PushPhase::Retreat;
-    best_along_ = -std::numeric_limits<double>::infinity();
-    since_progress_ = 0;
+    backOff(pushed, back);
   }
   fb.phase = phase_;
   fb.pushed = std::max(0.0, pushed);
-  if (phase_ == PushPhase::Contact) done_length = approach_length_ + standoff + std::min(0.0, pushed);
-  if (phase_ == PushPhase::Push) done_length = approach_length_ + standoff + std::clamp(pushed, 0.0, plan_.distance);
-  if (phase_ == PushPhase::Retreat) {
-    done_length = approach_length_ + standoff + plan_.distance + std::clamp(plan_.distance - pushed, 0.0, back);
-  }
   // Never backwards: turning in place and noise make the measured share wobble.
-  fb.progress = progress_ = std::max(progress_, share(done_length));
+  fb.progress = progress_ = std::max(progress_, share(doneLength(pushed, standoff, back)));
   return fb;
 }
 

@@ -246,14 +246,14 @@ struct Footprint {
   Eigen::Vector2d contact = Eigen::Vector2d::Zero();  // the nearest floor point of the box
 };
 
-// @p footprint: the object's horizontal extents, long side first. A disc (@p disc) is the nearest contact point
-// plus its radius (footprint / 2) along the viewing ray: the nearest point of a circle lies on the line to its centre.
-Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position,
-                          const Eigen::Vector2d& footprint, bool disc, int image_rows) {
-  const double size = footprint.y();  // the short side bounds which outlines are long enough to fit
-  Footprint fp;
-  std::vector<cv::Point2f> ground;  // world x, y, left to right in the image
-  int cut = 0, columns = 0;
+Eigen::Vector2d toEigen(const cv::Point2f& p) { return Eigen::Vector2d(p.x, p.y); }
+
+// For each column of the blob, its lowest covered pixel back-projected onto the floor (world x, y, left to right
+// in the image). @p columns counts the blob's columns, @p cut those whose contact the image border hides.
+std::vector<cv::Point2f> groundPoints(const Blob& blob, const Pinhole& cam, int image_rows, int& cut, int& columns) {
+  std::vector<cv::Point2f> ground;
+  cut = 0;
+  columns = 0;
   for (int c = 0; c < blob.mask.cols; ++c) {
     int row = -1;
     for (int j = blob.mask.rows - 1; j >= 0; --j) {
@@ -275,14 +275,83 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
       ground.emplace_back(static_cast<float>(g.x()), static_cast<float>(g.y()));
     }
   }
+  return ground;
+}
+
+// A least-squares line through ground[from..to]: a point on it and its direction from `from` towards `to`.
+void fitEdge(const std::vector<cv::Point2f>& ground, std::size_t from, std::size_t to, Eigen::Vector2d& point,
+             Eigen::Vector2d& dir) {
+  std::vector<cv::Point2f> pts(ground.begin() + from, ground.begin() + to + 1);
+  cv::Vec4f f;
+  cv::fitLine(pts, f, cv::DIST_L2, 0, 1e-4, 1e-4);
+  point = Eigen::Vector2d(f[2], f[3]);
+  dir = Eigen::Vector2d(f[0], f[1]);
+  if (dir.dot(toEigen(ground[to]) - toEigen(ground[from])) < 0) dir = -dir;
+}
+
+// Two edges meeting at the nearest point ground[k]: the centre is their corner plus half the size along both.
+// False when the fitted edges do not make a corner (one face split in two).
+bool centreFromCorner(const std::vector<cv::Point2f>& ground, std::size_t k, double left_len, double right_len,
+                      const Eigen::Vector2d& footprint, Eigen::Vector2d& centre) {
+  Eigen::Vector2d p1, d1, p2, d2;
+  fitEdge(ground, 0, k, p1, d1);                  // runs towards the corner
+  fitEdge(ground, k, ground.size() - 1, p2, d2);  // runs away from it
+  d1 = -d1;                                       // both away from the corner now
+  const double cross = d1.x() * d2.y() - d1.y() * d2.x();
+  if (!(std::fabs(cross) > std::sin(M_PI / 4))) return false;
+  // Corner: p1 + t d1 = p2 + u d2.
+  const Eigen::Vector2d w = p2 - p1;
+  const double t = (w.x() * d2.y() - w.y() * d2.x()) / cross;
+  const Eigen::Vector2d corner = p1 + t * d1;
+  // The two edges are perpendicular: average their directions modulo pi/2, then rebuild both.
+  const double a1 = std::atan2(d1.y(), d1.x()), a2 = std::atan2(d2.y(), d2.x());
+  const double yaw = std::atan2(std::sin(4 * a1) + std::sin(4 * a2), std::cos(4 * a1) + std::cos(4 * a2)) / 4;
+  auto snap = [&](const Eigen::Vector2d& d) {
+    const double q = std::round((std::atan2(d.y(), d.x()) - yaw) / (M_PI / 2)) * (M_PI / 2) + yaw;
+    return Eigen::Vector2d(std::cos(q), std::sin(q));
+  };
+  // The long side along the edge seen longer (a seen edge is never longer than its side).
+  const double along1 = 0.5 * (left_len >= right_len ? footprint.x() : footprint.y());
+  const double along2 = 0.5 * (left_len >= right_len ? footprint.y() : footprint.x());
+  centre = corner + along1 * snap(d1) + along2 * snap(d2);
+  return true;
+}
+
+// One face turned to the camera: the seen edge's midpoint plus half the size away from the camera.
+Eigen::Vector2d centreFromFace(const std::vector<cv::Point2f>& ground, const Eigen::Vector2d& cam_xy,
+                               const Eigen::Vector2d& footprint) {
+  Eigen::Vector2d p, d;
+  fitEdge(ground, 0, ground.size() - 1, p, d);
+  double tmin = std::numeric_limits<double>::max(), tmax = -tmin;
+  for (const auto& g : ground) {
+    const double t = (toEigen(g) - p).dot(d);
+    tmin = std::min(tmin, t);
+    tmax = std::max(tmax, t);
+  }
+  const Eigen::Vector2d mid = p + 0.5 * (tmin + tmax) * d;
+  Eigen::Vector2d n(-d.y(), d.x());
+  if (n.dot(mid - cam_xy) < 0) n = -n;
+  // A face of the long side turned to the camera when the seen edge is nearer its length than the short one.
+  const double seen = tmax - tmin;
+  const bool long_face = std::fabs(seen - footprint.x()) < std::fabs(seen - footprint.y());
+  return mid + 0.5 * (long_face ? footprint.y() : footprint.x()) * n;
+}
+
+// @p footprint: the object's horizontal extents, long side first. A disc (@p disc) is the nearest contact point
+// plus its radius (footprint / 2) along the viewing ray: the nearest point of a circle lies on the line to its centre.
+Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vector3d& camera_position,
+                          const Eigen::Vector2d& footprint, bool disc, int image_rows) {
+  const double size = footprint.y();  // the short side bounds which outlines are long enough to fit
+  Footprint fp;
+  int cut = 0, columns = 0;
+  const std::vector<cv::Point2f> ground = groundPoints(blob, cam, image_rows, cut, columns);
   if (ground.empty() || 2 * cut > columns) return fp;
   const Eigen::Vector2d cam_xy = camera_position.head<2>();
-  auto vec = [](const cv::Point2f& p) { return Eigen::Vector2d(p.x, p.y); };
   std::size_t k = 0;  // the nearest point: the corner, or somewhere on a face turned to the camera
   for (std::size_t i = 1; i < ground.size(); ++i) {
-    if ((vec(ground[i]) - cam_xy).norm() < (vec(ground[k]) - cam_xy).norm()) k = i;
+    if ((toEigen(ground[i]) - cam_xy).norm() < (toEigen(ground[k]) - cam_xy).norm()) k = i;
   }
-  fp.contact = vec(ground[k]);
+  fp.contact = toEigen(ground[k]);
   const double half = 0.25 * (footprint.x() + footprint.y());  // fallback, when the sides are not told apart
   const Eigen::Vector2d to_contact = fp.contact - cam_xy;
   if (disc) {
@@ -294,58 +363,15 @@ Footprint groundFootprint(const Blob& blob, const Pinhole& cam, const Eigen::Vec
     fp.ok = true;
     return fp;
   }
-  auto fit = [&](std::size_t from, std::size_t to, Eigen::Vector2d& point, Eigen::Vector2d& dir) {
-    std::vector<cv::Point2f> pts(ground.begin() + from, ground.begin() + to + 1);
-    cv::Vec4f f;
-    cv::fitLine(pts, f, cv::DIST_L2, 0, 1e-4, 1e-4);
-    point = Eigen::Vector2d(f[2], f[3]);
-    dir = Eigen::Vector2d(f[0], f[1]);
-    if (dir.dot(vec(ground[to]) - vec(ground[from])) < 0) dir = -dir;  // from `from` towards `to`
-  };
-  const double left_len = (vec(ground.front()) - fp.contact).norm(), right_len = (vec(ground.back()) - fp.contact).norm();
+  const double left_len = (toEigen(ground.front()) - fp.contact).norm();
+  const double right_len = (toEigen(ground.back()) - fp.contact).norm();
   const bool two = k >= 2 && k + 2 < ground.size() && left_len > 0.3 * size && right_len > 0.3 * size;
-  if (two) {
-    Eigen::Vector2d p1, d1, p2, d2;
-    fit(0, k, p1, d1);   // runs towards the corner
-    fit(k, ground.size() - 1, p2, d2);  // runs away from it
-    d1 = -d1;            // both away from the corner now
-    const double cross = d1.x() * d2.y() - d1.y() * d2.x();
-    if (std::fabs(cross) > std::sin(M_PI / 4)) {  // a real corner, not one face split in two
-      // Corner: p1 + t d1 = p2 + u d2.
-      const Eigen::Vector2d w = p2 - p1;
-      const double t = (w.x() * d2.y() - w.y() * d2.x()) / cross;
-      const Eigen::Vector2d corner = p1 + t * d1;
-      // The two edges are perpendicular: average their directions modulo pi/2, then rebuild both.
-      const double a1 = std::atan2(d1.y(), d1.x()), a2 = std::atan2(d2.y(), d2.x());
-      const double yaw = std::atan2(std::sin(4 * a1) + std::sin(4 * a2), std::cos(4 * a1) + std::cos(4 * a2)) / 4;
-      auto snap = [&](const Eigen::Vector2d& d) {
-        const double q = std::round((std::atan2(d.y(), d.x()) - yaw) / (M_PI / 2)) * (M_PI / 2) + yaw;
-        return Eigen::Vector2d(std::cos(q), std::sin(q));
-      };
-      // The long side along the edge seen longer (a seen edge is never longer than its side).
-      const double along1 = 0.5 * (left_len >= right_len ? footprint.x() : footprint.y());
-      const double along2 = 0.5 * (left_len >= right_len ? footprint.y() : footprint.x());
-      fp.centre = corner + along1 * snap(d1) + along2 * snap(d2);
-      fp.ok = true;
-      return fp;
-    }
+  if (two && centreFromCorner(ground, k, left_len, right_len, footprint, fp.centre)) {
+    fp.ok = true;
+    return fp;
   }
-  if (ground.size() >= 4 && (vec(ground.front()) - vec(ground.back())).norm() > 0.5 * size) {
-    Eigen::Vector2d p, d;
-    fit(0, ground.size() - 1, p, d);
-    double tmin = std::numeric_limits<double>::max(), tmax = -tmin;
-    for (const auto& g : ground) {
-      const double t = (vec(g) - p).dot(d);
-      tmin = std::min(tmin, t);
-      tmax = std::max(tmax, t);
-    }
-    const Eigen::Vector2d mid = p + 0.5 * (tmin + tmax) * d;
-    Eigen::Vector2d n(-d.y(), d.x());
-    if (n.dot(mid - cam_xy) < 0) n = -n;
-    // A face of the long side turned to the camera when the seen edge is nearer its length than the short one.
-    const double seen = tmax - tmin;
-    const bool long_face = std::fabs(seen - footprint.x()) < std::fabs(seen - footprint.y());
-    fp.centre = mid + 0.5 * (long_face ? footprint.y() : footprint.x()) * n;
+  if (ground.size() >= 4 && (toEigen(ground.front()) - toEigen(ground.back())).norm() > 0.5 * size) {
+    fp.centre = centreFromFace(ground, cam_xy, footprint);
     fp.ok = true;
     return fp;
   }
@@ -594,6 +620,283 @@ std::string checkPose(const Eigen::Isometry3d& pose) {
   return "";
 }
 
+void checkImage(const cv::Mat& bgr, const CameraModel& camera) {
+  if (bgr.empty()) throw ValidationError("the image is empty; expected a " + std::to_string(camera.width) + " x " +
+                                         std::to_string(camera.height) + " BGR image (CV_8UC3)");
+  if (bgr.type() != CV_8UC3) {
+    throw ValidationError("the image has " + std::to_string(bgr.channels()) + " channel(s) of depth code " +
+                          std::to_string(bgr.depth()) + "; expected 8-bit BGR (CV_8UC3)");
+  }
+  if (bgr.cols != camera.width || bgr.rows != camera.height) {
+    throw ValidationError("the image is " + std::to_string(bgr.cols) + " x " + std::to_string(bgr.rows) +
+                          " pixels; camera '" + camera.name + "' gives " + std::to_string(camera.width) + " x " +
+                          std::to_string(camera.height));
+  }
+}
+
+// The labelling pass's result: brightness (b + g + r) and the colour label of every pixel (0 = none, k + 1 =
+// labels[k]), and each label's bounding box grown by a pixel (empty when no pixel has the label).
+struct LabelledImage {
+  cv::Mat brightness, label;
+  std::vector<cv::Rect> where;
+};
+
+// Near-grey pixels (floor, walls, background) are in no class: a pixel whose chromaticity is closer to grey
+// (1/3, 1/3, 1/3) than every class box is skipped without the division. Distance to grey, times 3 (b+g+r):
+// max |3c - sum| / sum.
+float greyMargin(const std::vector<FeatureExtractor::ColorClass>& labels) {
+  float grey_margin = 3.0f;
+  const cv::Vec3f grey(1.0f / 3, 1.0f / 3, 1.0f / 3);
+  for (const auto& c : labels) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
+  return std::max(0.0f, grey_margin * 0.999f);
+}
+
+// One pass over the image: brightness and the colour label of every pixel, by chromaticity (and brightness, for a
+// grey class). The boxes do not overlap (each is at most half the distance to the next colour), so the first
+// match is the only one.
+LabelledImage labelPixels(const cv::Mat& bgr, const std::vector<FeatureExtractor::ColorClass>& labels,
+                          double min_brightness) {
+  LabelledImage image{cv::Mat(bgr.size(), CV_16U), cv::Mat(bgr.size(), CV_8U), std::vector<cv::Rect>(labels.size())};
+  const int n = static_cast<int>(labels.size());
+  std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
+  std::array<float, 766> inverse;  // 1 / (b + g + r)
+  inverse[0] = 0;
+  for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
+  const int min_sum = static_cast<int>(std::ceil(min_brightness));
+  const float grey_margin = greyMargin(labels);
+  for (int j = 0; j < bgr.rows; ++j) {
+    const uchar* p = bgr.ptr<uchar>(j);
+    ushort* b = image.brightness.ptr<ushort>(j);
+    uchar* l = image.label.ptr<uchar>(j);
+    int last_b = -1, last_g = -1, last_r = -1, last_label = 0;
+    for (int i = 0; i < bgr.cols; ++i, p += 3) {
+      const int sum = p[0] + p[1] + p[2];
+      b[i] = static_cast<ushort>(sum);
+      // Flat shading paints large runs of identical pixels (the floor above all): reuse the last answer.
+      if (p[0] == last_b && p[1] == last_g && p[2] == last_r) {
+        l[i] = static_cast<uchar>(last_label);
+        if (last_label) {
+          const int k = last_label - 1;
+          x1[k] = std::max(x1[k], i);
+        }
+        continue;
+      }
+      last_b = p[0];
+      last_g = p[1];
+      last_r = p[2];
+      last_label = 0;
+      l[i] = 0;
+      if (sum < min_sum) continue;
+      const int off = std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
+      if (off < grey_margin * sum) continue;
+      const float inv = inverse[sum];
+      const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
+      for (int k = 0; k < n; ++k) {
+        const FeatureExtractor::ColorClass& c = labels[k];
+        if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
+            std::fabs(cr - c.chroma[2]) <= c.tolerance && sum >= c.min_brightness && sum <= c.max_brightness) {
+          l[i] = static_cast<uchar>(k + 1);
+          last_label = k + 1;
+          x0[k] = std::min(x0[k], i);
+          x1[k] = std::max(x1[k], i);
+          y0[k] = std::min(y0[k], j);
+          y1[k] = std::max(y1[k], j);
+          break;
+        }
+      }
+    }
+  }
+  // findContours needs a background pixel around a blob: grow the boxes by one, within the image.
+  for (int k = 0; k < n; ++k) {
+    if (x1[k] >= 0) {
+      image.where[k] = cv::Rect(cv::Point(x0[k] - 1, y0[k] - 1), cv::Point(x1[k] + 2, y1[k] + 2)) &
+                       cv::Rect(0, 0, bgr.cols, bgr.rows);
+    }
+  }
+  return image;
+}
+
+// A blob measured as one of the objects sharing its colour.
+struct Candidate {
+  double cost;
+  std::size_t object, blob;
+  bool measured;  // false: cut by the border, plausibly this object but not measurable
+  ObjectDetection det;
+};
+
+// One extract() call on one labelled image: the catalogue's objects, then the robot, into `out`.
+struct Extraction {
+  const PerceptionCatalogue& catalogue;
+  const CameraModel& camera;
+  const PerceptionOptions& options;
+  const std::vector<int>& label_of;  // FeatureExtractor's: the label of each class
+  const std::vector<FeatureExtractor::ColorClass>& classes;
+  const Pinhole& cam;
+  const LabelledImage& image;
+  const cv::Mat& kernel;  // the morphological opening of each class mask; empty: none
+  cv::Size size;
+  Detections& out;
+
+  // A full-size mask of label k, filled in only within where[k] (nothing of the label is outside it).
+  cv::Mat classMask(std::size_t k) const {
+    cv::Mat mask = cv::Mat::zeros(size, CV_8U);
+    if (image.where[k].empty()) return mask;
+    cv::Mat part = mask(image.where[k]);
+    cv::compare(image.label(image.where[k]), static_cast<double>(k + 1), part, cv::CMP_EQ);
+    if (!kernel.empty()) cv::morphologyEx(part, part, cv::MORPH_OPEN, kernel);
+    return mask;
+  }
+
+  // Objects, colour class by colour class: with one object of a colour its largest blob; with several, every
+  // blob is measured as each of them and the best-matching pairs are taken (assignBlobs).
+  void findObjects() const {
+    const Measurer measurer{camera, options, cam, image.brightness, size, out.downward};
+    std::vector<ObjectDetection> found(catalogue.objects.size());
+    std::vector<bool> seen(catalogue.objects.size(), false);
+    for (std::size_t label = 0; label < image.where.size(); ++label) {
+      std::vector<std::size_t> members;
+      for (std::size_t i = 0; i < catalogue.objects.size(); ++i) {
+        if (label_of[i] == static_cast<int>(label) + 1) members.push_back(i);
+      }
+      if (members.empty()) continue;
+      const cv::Mat mask = classMask(label);
+      if (members.size() == 1) {
+        Blob blob;
+        if (!makeBlob(mask, image.where[label], options.min_blob_pixels, blob)) continue;
+        double cost = 0;
+        bool cut = false;
+        seen[members[0]] = measurer.measure(catalogue.objects[members[0]], blob, found[members[0]], cost, cut);
+        continue;
+      }
+      const std::vector<Blob> blobs = allBlobs(mask, image.where[label], options.min_blob_pixels, 3 * members.size());
+      assignBlobs(measurer, blobs, members, found, seen);
+    }
+    for (std::size_t i = 0; i < catalogue.objects.size(); ++i) {
+      if (seen[i]) {
+        out.objects.emplace(catalogue.objects[i].name, std::move(found[i]));
+      } else {
+        out.missing.push_back(catalogue.objects[i].name);
+      }
+    }
+  }
+
+  // Same-coloured objects' blobs: greedy on the mismatch cost, each blob and object taken once.
+  void assignBlobs(const Measurer& measurer, const std::vector<Blob>& blobs, const std::vector<std::size_t>& members,
+                   std::vector<ObjectDetection>& found, std::vector<bool>& seen) const {
+    std::vector<Candidate> candidates;
+    for (std::size_t b = 0; b < blobs.size(); ++b) {
+      for (std::size_t i : members) {
+        Candidate c{0, i, b, false, {}};
+        bool cut = false;
+        c.measured = measurer.measure(catalogue.objects[i], blobs[b], c.det, c.cost, cut);
+        if ((c.measured || cut) && c.cost < kMaxMatchCost) candidates.push_back(std::move(c));
+      }
+    }
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Candidate& x, const Candidate& y) { return x.cost < y.cost; });
+    std::vector<bool> blob_taken(blobs.size(), false);
+    for (Candidate& c : candidates) {
+      if (seen[c.object] || blob_taken[c.blob]) continue;
+      blob_taken[c.blob] = true;
+      // A blob that another still-unplaced object of the colour fits about as well (a cut outline, a cylinder
+      // and a ball of one size side-on) is ambiguous: better missing than reported as the wrong object.
+      bool ambiguous = false;
+      for (const Candidate& other : candidates) {
+        ambiguous = ambiguous || (other.blob == c.blob && other.object != c.object && !seen[other.object] &&
+                                  other.cost < c.cost + kAmbiguityMargin);
+      }
+      if (ambiguous || !c.measured) continue;
+      seen[c.object] = true;
+      found[c.object] = std::move(c.det);
+    }
+  }
+
+  // The robot, from above: the centre of its body's top face, the heading from the marker.
+  void findRobot() const {
+    const RobotAppearance& robot = catalogue.robot;
+    if (!robot.present || !out.downward) return;
+    const std::size_t body_label = label_of[catalogue.objects.size()] - 1;
+    const bool has_marker = classes.size() > catalogue.objects.size() + 1;
+    const std::size_t marker_label = has_marker ? label_of[catalogue.objects.size() + 1] - 1 : 0;
+    Blob body;
+    if (!makeBlob(classMask(body_label), image.where[body_label], options.min_blob_pixels, body)) return;
+    cv::Mat disc = brightestShade(body, image.brightness, options.top_face_brightness);
+    cv::Mat marker_mask;
+    if (has_marker) {
+      marker_mask = classMask(marker_label);
+      // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
+      cv::Mat grown;
+      cv::dilate(marker_mask(body.roi), grown, cv::Mat());
+      cv::bitwise_or(disc, grown, disc);
+    }
+    measureRobotBody(body, disc);
+    if (out.robot.found && has_marker) headingFromMarker(marker_mask, image.where[marker_label]);
+  }
+
+  // The robot found where its body's top face (@p disc, the marker counted in) meets the plane of its top.
+  void measureRobotBody(const Blob& body, const cv::Mat& disc) const {
+    const RobotAppearance& robot = catalogue.robot;
+    const std::vector<cv::Point> outline = largestContour(disc, body.roi.tl());
+    if (outline.size() < 3) return;
+    const cv::Moments m = cv::moments(outline);
+    if (!(m.m00 > 0)) return;
+    const cv::Point2d c = toRenderer({m.m10 / m.m00, m.m01 / m.m00});
+    Eigen::Vector3d centre;
+    if (!cam.toPlane(c.x, c.y, robot.body_top, centre)) return;
+    RobotDetection& r = out.robot;
+    r.found = true;
+    r.x = centre.x();
+    r.y = centre.y();
+    r.centroid = body.centroid;
+    r.pixel_area = body.pixels;
+    r.contour = body.contour;
+    const double depth = cam.depth(centre);
+    const double top_area = m.m00 * depth * depth / (camera.fx * camera.fy);
+    const double ratio = top_area / robot.body_area;
+    r.confidence = std::min(ratio, 1 / ratio);
+  }
+
+  // The heading from the largest marker blob within reach of the body (stray pixels of a nearby thing of the
+  // marker's colour are smaller): its top face's centre, on the plane of the marker's top.
+  void headingFromMarker(const cv::Mat& marker_mask, const cv::Rect& where) const {
+    const RobotAppearance& robot = catalogue.robot;
+    const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
+    std::vector<std::vector<cv::Point>> contours;
+    if (!where.empty()) {
+      cv::findContours(marker_mask(where), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, where.tl());
+    }
+    int best = 0;
+    Eigen::Vector3d marker_world;
+    bool seen = false;
+    for (const auto& c : contours) {
+      Blob mb;
+      mb.contour = c;
+      mb.roi = cv::boundingRect(c);
+      cv::Mat filled = cv::Mat::zeros(mb.roi.size(), CV_8U);
+      cv::drawContours(filled, std::vector<std::vector<cv::Point>>{c}, 0, cv::Scalar(255), cv::FILLED, cv::LINE_8,
+                       cv::noArray(), 0, -mb.roi.tl());
+      cv::bitwise_and(filled, marker_mask(mb.roi), mb.mask);
+      const int pixels = cv::countNonZero(mb.mask);
+      if (pixels <= best) continue;
+      const cv::Mat top = brightestShade(mb, image.brightness, options.top_face_brightness);
+      const cv::Moments m = cv::moments(top, true);
+      if (m.m00 <= 0) continue;
+      const cv::Point2d p = toRenderer({m.m10 / m.m00 + mb.roi.x, m.m01 / m.m00 + mb.roi.y});
+      Eigen::Vector3d w;
+      if (!cam.toPlane(p.x, p.y, robot.marker_top, w)) continue;
+      if (std::hypot(w.x() - out.robot.x, w.y() - out.robot.y) >= reach) continue;
+      best = pixels;
+      marker_world = w;
+      seen = true;
+    }
+    if (seen && robot.marker_offset.head<2>().norm() > 1e-6) {
+      const double seen_angle = std::atan2(marker_world.y() - out.robot.y, marker_world.x() - out.robot.x);
+      out.robot.yaw = wrapPi(seen_angle - std::atan2(robot.marker_offset.y(), robot.marker_offset.x()));
+      out.robot.yaw_known = true;
+    }
+  }
+};
+
 }  // namespace
 
 double foldAngle(double yaw, double period) {
@@ -783,49 +1086,33 @@ std::string checkDistinguishable(const PerceptionCatalogue& catalogue) {
 
 // ---- extractor --------------------------------------------------------------------------------------
 
-FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera, PerceptionOptions options)
-    : catalogue_(std::move(catalogue)), camera_(std::move(camera)), options_(options) {
-  if (camera_.width <= 0 || camera_.height <= 0) {
-    throw ValidationError("camera '" + camera_.name + "' has size " + std::to_string(camera_.width) + " x " +
-                          std::to_string(camera_.height) + "; width and height must be positive");
+namespace {
+
+void checkCameraAndOptions(const CameraModel& camera, const PerceptionOptions& options) {
+  if (camera.width <= 0 || camera.height <= 0) {
+    throw ValidationError("camera '" + camera.name + "' has size " + std::to_string(camera.width) + " x " +
+                          std::to_string(camera.height) + "; width and height must be positive");
   }
-  requirePositive("camera.fx", camera_.fx);
-  requirePositive("camera.fy", camera_.fy);
-  requireFinite("camera.cx", camera_.cx);
-  requireFinite("camera.cy", camera_.cy);
-  requireInRange("options.max_downward_tilt", options_.max_downward_tilt, 0, M_PI / 2);
-  requireInRange("options.min_brightness", options_.min_brightness, 0, 765);
-  requireInRange("options.max_chroma_tolerance", options_.max_chroma_tolerance, 0.005, 0.5);
-  requireInRange("options.min_blob_pixels", options_.min_blob_pixels, 1, 1e9);
-  requireInRange("options.top_face_brightness", options_.top_face_brightness, 0.5, 1.5);
-  requireInRange("options.min_top_fraction", options_.min_top_fraction, 0, 1);
-  if (options_.morphology_kernel < 1 || options_.morphology_kernel % 2 == 0 || options_.morphology_kernel > 15) {
-    throw ValidationError("options.morphology_kernel is " + std::to_string(options_.morphology_kernel) +
+  requirePositive("camera.fx", camera.fx);
+  requirePositive("camera.fy", camera.fy);
+  requireFinite("camera.cx", camera.cx);
+  requireFinite("camera.cy", camera.cy);
+  requireInRange("options.max_downward_tilt", options.max_downward_tilt, 0, M_PI / 2);
+  requireInRange("options.min_brightness", options.min_brightness, 0, 765);
+  requireInRange("options.max_chroma_tolerance", options.max_chroma_tolerance, 0.005, 0.5);
+  requireInRange("options.min_blob_pixels", options.min_blob_pixels, 1, 1e9);
+  requireInRange("options.top_face_brightness", options.top_face_brightness, 0.5, 1.5);
+  requireInRange("options.min_top_fraction", options.min_top_fraction, 0, 1);
+  if (options.morphology_kernel < 1 || options.morphology_kernel % 2 == 0 || options.morphology_kernel > 15) {
+    throw ValidationError("options.morphology_kernel is " + std::to_string(options.morphology_kernel) +
                           "; it must be an odd number from 1 to 15");
   }
+}
 
-  // Every colour in view with a name for error messages; the first `looked_for` are the ones looked for.
-  // shade_lo/hi: the pixel brightness range its faces can take under the renderer's light (any orientation).
-  const RenderOptions render;
-  struct Known {
-    std::string name;
-    Rgba color;
-    float shade_lo = 0, shade_hi = 765;
-  };
-  auto shades = [&](const Rgba& c) {
-    const double sum = 255.0 * (static_cast<double>(c.r) + c.g + c.b);
-    // Margins for sensor noise and the renderer's rounding.
-    return std::make_pair(static_cast<float>(std::max(0.0, 0.9 * sum * render.ambient - 6)),
-                          static_cast<float>(std::min(765.0, 1.04 * sum * (render.ambient + render.diffuse) + 6)));
-  };
-  std::vector<Known> known;
-  auto addKnown = [&](const std::string& name, const Rgba& c) {
-    const auto range = shades(c);
-    known.push_back({name, c, range.first, range.second});
-  };
+void checkCatalogue(const PerceptionCatalogue& catalogue) {
   std::set<std::string> names;
-  requireMaxSize("catalogue.objects", catalogue_.objects.size(), 250);  // class labels are 8-bit
-  for (const auto& o : catalogue_.objects) {
+  requireMaxSize("catalogue.objects", catalogue.objects.size(), 250);  // class labels are 8-bit
+  for (const auto& o : catalogue.objects) {
     requireIdentifier("catalogue object name", o.name);
     if (!names.insert(o.name).second) {
       throw ValidationError("catalogue object '" + o.name + "' appears twice; names must be unique");
@@ -837,70 +1124,119 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
       requirePositive(what, o.shape.radius);
       if (o.shape.type == Shape::Type::Cylinder) requirePositive(what, o.shape.length);
     }
-    addKnown("object '" + o.name + "'", o.color);
   }
-  throwIfInvalid(checkDistinguishable(catalogue_));
-  const RobotAppearance& r = catalogue_.robot;
+  throwIfInvalid(checkDistinguishable(catalogue));
+  const RobotAppearance& r = catalogue.robot;
   if (r.present) {
     requirePositive("robot.body_radius", r.body_radius);
     requirePositive("robot.body_area", r.body_area);
     requireFinite("robot.body_top", r.body_top);
+  }
+}
+
+// A colour in view with a name for error messages. shade_lo/hi: the pixel brightness range its faces can take
+// under the renderer's light (any orientation).
+struct KnownColour {
+  std::string name;
+  Rgba color;
+  float shade_lo = 0, shade_hi = 765;
+};
+
+// Every colour in view: the first @p looked_for are the ones looked for (the objects', the robot's body and
+// marker), then the scene's other visuals' and the background's.
+std::vector<KnownColour> knownColours(const PerceptionCatalogue& catalogue, std::size_t& looked_for) {
+  const RenderOptions render;
+  auto shades = [&](const Rgba& c) {
+    const double sum = 255.0 * (static_cast<double>(c.r) + c.g + c.b);
+    // Margins for sensor noise and the renderer's rounding.
+    return std::make_pair(static_cast<float>(std::max(0.0, 0.9 * sum * render.ambient - 6)),
+                          static_cast<float>(std::min(765.0, 1.04 * sum * (render.ambient + render.diffuse) + 6)));
+  };
+  std::vector<KnownColour> known;
+  auto addKnown = [&](const std::string& name, const Rgba& c) {
+    const auto range = shades(c);
+    known.push_back({name, c, range.first, range.second});
+  };
+  for (const auto& o : catalogue.objects) addKnown("object '" + o.name + "'", o.color);
+  const RobotAppearance& r = catalogue.robot;
+  if (r.present) {
     addKnown("the robot's body", r.body_color);
     if (r.marker_size.minCoeff() > 0) addKnown("the robot's marker", r.marker_color);
   }
-  const std::size_t looked_for = known.size();
-  for (const Rgba& c : catalogue_.other_colors) addKnown("another visual of the scene", c);
+  looked_for = known.size();
+  for (const Rgba& c : catalogue.other_colors) addKnown("another visual of the scene", c);
   const cv::Vec3b bg = render.background_bgr;
   const float bg_sum = static_cast<float>(bg[0] + bg[1] + bg[2]);
   known.push_back({"the background", Rgba{bg[2] / 255.0f, bg[1] / 255.0f, bg[0] / 255.0f, 1}, bg_sum - 6, bg_sum + 6});
+  return known;
+}
 
+// Colours of the same class (same-coloured objects, the first @p objects of @p known) share the label and do not
+// bound each other.
+bool sharesClass(const std::vector<KnownColour>& known, std::size_t objects, std::size_t i, std::size_t j) {
+  return j < objects && i < objects && sameColourClass(known[i].color, known[j].color);
+}
+
+// known[i]'s chromaticity box: half as wide as its distance to the nearest other colour, at most
+// max_chroma_tolerance. A colour too close to another in chromaticity is told apart by brightness as well.
+// @throws ValidationError when it cannot be told apart from another colour either way
+FeatureExtractor::ColorClass colourClassOf(const std::vector<KnownColour>& known, std::size_t i, std::size_t objects,
+                                           double max_chroma_tolerance) {
   constexpr float kMinTolerance = 0.01f;
+  const cv::Vec3f ci = chromaOf(known[i].color);
+  float nearest = std::numeric_limits<float>::max();
+  for (std::size_t j = 0; j < known.size(); ++j) {
+    if (j == i || sharesClass(known, objects, i, j)) continue;
+    nearest = std::min(nearest, chebyshev(ci, chromaOf(known[j].color)));
+  }
+  FeatureExtractor::ColorClass cls;
+  cls.chroma = ci;
+  cls.tolerance = std::min(static_cast<float>(max_chroma_tolerance), nearest / 2);
+  if (cls.tolerance >= kMinTolerance) return cls;
+  // Too close in chromaticity (a grey object on a grey floor): tell them apart by brightness as well, if
+  // none of the close colours can take any of this colour's shades.
+  cls.min_brightness = known[i].shade_lo;
+  cls.max_brightness = known[i].shade_hi;
+  float rest = std::numeric_limits<float>::max();
+  for (std::size_t j = 0; j < known.size(); ++j) {
+    if (j == i || sharesClass(known, objects, i, j)) continue;
+    const float d = chebyshev(ci, chromaOf(known[j].color));
+    if (d >= 4 * kMinTolerance) {
+      rest = std::min(rest, d);
+      continue;
+    }
+    if (known[j].shade_hi >= cls.min_brightness && known[j].shade_lo <= cls.max_brightness) {
+      throw ValidationError(
+          "the colour of " + known[i].name + " " + describeColor(known[i].color) + " is too close to that of " +
+          known[j].name + " " + describeColor(known[j].color) +
+          " to tell them apart: their chromaticities differ by " + describeNumber(d) +
+          " and their shades overlap in brightness (" + describeNumber(cls.min_brightness) + "-" +
+          describeNumber(cls.max_brightness) + " against " + describeNumber(known[j].shade_lo) + "-" +
+          describeNumber(known[j].shade_hi) + " of 765); give it another colour, or a clearly darker or lighter one");
+    }
+  }
+  cls.tolerance = std::min(static_cast<float>(max_chroma_tolerance), rest / 2);
+  return cls;
+}
+
+}  // namespace
+
+FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera, PerceptionOptions options)
+    : catalogue_(std::move(catalogue)), camera_(std::move(camera)), options_(options) {
+  checkCameraAndOptions(camera_, options_);
+  checkCatalogue(catalogue_);
+  std::size_t looked_for = 0;
+  const std::vector<KnownColour> known = knownColours(catalogue_, looked_for);
+  const std::size_t objects = catalogue_.objects.size();
   for (std::size_t i = 0; i < looked_for; ++i) {
-    const cv::Vec3f ci = chromaOf(known[i].color);
-    // Colours of the same class (same-coloured objects) share the label and do not bound each other.
-    auto sharesClass = [&](std::size_t j) {
-      return j < catalogue_.objects.size() && i < catalogue_.objects.size() &&
-             sameColourClass(known[i].color, known[j].color);
-    };
-    float nearest = std::numeric_limits<float>::max();
-    for (std::size_t j = 0; j < known.size(); ++j) {
-      if (j != i && !sharesClass(j)) nearest = std::min(nearest, chebyshev(ci, chromaOf(known[j].color)));
-    }
-    ColorClass cls;
-    cls.chroma = ci;
-    cls.tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), nearest / 2);
-    if (cls.tolerance < kMinTolerance) {
-      // Too close in chromaticity (a grey object on a grey floor): tell them apart by brightness as well, if
-      // none of the close colours can take any of this colour's shades.
-      cls.min_brightness = known[i].shade_lo;
-      cls.max_brightness = known[i].shade_hi;
-      float rest = std::numeric_limits<float>::max();
-      for (std::size_t j = 0; j < known.size(); ++j) {
-        if (j == i || sharesClass(j)) continue;
-        const float d = chebyshev(ci, chromaOf(known[j].color));
-        if (d >= 4 * kMinTolerance) {
-          rest = std::min(rest, d);
-          continue;
-        }
-        if (known[j].shade_hi >= cls.min_brightness && known[j].shade_lo <= cls.max_brightness) {
-          throw ValidationError(
-              "the colour of " + known[i].name + " " + describeColor(known[i].color) + " is too close to that of " +
-              known[j].name + " " + describeColor(known[j].color) +
-              " to tell them apart: their chromaticities differ by " + describeNumber(d) +
-              " and their shades overlap in brightness (" + describeNumber(cls.min_brightness) + "-" +
-              describeNumber(cls.max_brightness) + " against " + describeNumber(known[j].shade_lo) + "-" +
-              describeNumber(known[j].shade_hi) + " of 765); give it another colour, or a clearly darker or lighter one");
-        }
-      }
-      cls.tolerance = std::min(static_cast<float>(options_.max_chroma_tolerance), rest / 2);
-    }
-    cls.name = i < catalogue_.objects.size() ? catalogue_.objects[i].name
-               : (i == catalogue_.objects.size() ? std::string("robot_body") : std::string("robot_marker"));
+    ColorClass cls = colourClassOf(known, i, objects, options_.max_chroma_tolerance);
+    cls.name = i < objects ? catalogue_.objects[i].name
+               : (i == objects ? std::string("robot_body") : std::string("robot_marker"));
     classes_.push_back(cls);
     // One pixel label per colour class: same-coloured objects share the first one's.
     int label = 0;
     for (std::size_t j = 0; j < i && !label; ++j) {
-      if (sharesClass(j)) label = label_of_[j];
+      if (sharesClass(known, objects, i, j)) label = label_of_[j];
     }
     if (!label) {
       labels_.push_back(cls);
@@ -921,248 +1257,21 @@ bool FeatureExtractor::isDownward(const Eigen::Isometry3d& world_from_camera) co
 }
 
 Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d& world_from_camera) const {
-  if (bgr.empty()) throw ValidationError("the image is empty; expected a " + std::to_string(camera_.width) + " x " +
-                                         std::to_string(camera_.height) + " BGR image (CV_8UC3)");
-  if (bgr.type() != CV_8UC3) {
-    throw ValidationError("the image has " + std::to_string(bgr.channels()) + " channel(s) of depth code " +
-                          std::to_string(bgr.depth()) + "; expected 8-bit BGR (CV_8UC3)");
-  }
-  if (bgr.cols != camera_.width || bgr.rows != camera_.height) {
-    throw ValidationError("the image is " + std::to_string(bgr.cols) + " x " + std::to_string(bgr.rows) +
-                          " pixels; camera '" + camera_.name + "' gives " + std::to_string(camera_.width) + " x " +
-                          std::to_string(camera_.height));
-  }
+  checkImage(bgr, camera_);
   throwIfInvalid(checkPose(world_from_camera));
 
   Detections out;
   out.world_from_camera = world_from_camera;
   out.downward = isDownward(world_from_camera);
   const Pinhole cam(camera_, world_from_camera);
-
-  // One pass over the image: brightness (b + g + r) and the colour label of every pixel (0 = none, k + 1 =
-  // labels_[k]), by chromaticity (and brightness, for a grey class). The boxes do not overlap (each is at most half the distance to the next
-  // colour), so the first match is the only one.
-  cv::Mat brightness(bgr.size(), CV_16U), label(bgr.size(), CV_8U);
-  const int n = static_cast<int>(labels_.size());
-  std::vector<cv::Rect> where(labels_.size());  // each label's bounding box, grown by a pixel
-  {
-    std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
-    std::array<float, 766> inverse;  // 1 / (b + g + r)
-    inverse[0] = 0;
-    for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
-    const int min_sum = static_cast<int>(std::ceil(options_.min_brightness));
-    // Near-grey pixels (floor, walls, background) are in no class: a pixel whose chromaticity is closer to grey
-    // (1/3, 1/3, 1/3) than every class box is skipped without the division. Distance to grey, times 3 (b+g+r):
-    // max |3c - sum| / sum.
-    float grey_margin = 3.0f;
-    const cv::Vec3f grey(1.0f / 3, 1.0f / 3, 1.0f / 3);
-    for (const ColorClass& c : labels_) grey_margin = std::min(grey_margin, 3 * (chebyshev(c.chroma, grey) - c.tolerance));
-    grey_margin = std::max(0.0f, grey_margin * 0.999f);
-    for (int j = 0; j < bgr.rows; ++j) {
-      const uchar* p = bgr.ptr<uchar>(j);
-      ushort* b = brightness.ptr<ushort>(j);
-      uchar* l = label.ptr<uchar>(j);
-      int last_b = -1, last_g = -1, last_r = -1, last_label = 0;
-      for (int i = 0; i < bgr.cols; ++i, p += 3) {
-        const int sum = p[0] + p[1] + p[2];
-        b[i] = static_cast<ushort>(sum);
-        // Flat shading paints large runs of identical pixels (the floor above all): reuse the last answer.
-        if (p[0] == last_b && p[1] == last_g && p[2] == last_r) {
-          l[i] = static_cast<uchar>(last_label);
-          if (last_label) {
-            const int k = last_label - 1;
-            x1[k] = std::max(x1[k], i);
-          }
-          continue;
-        }
-        last_b = p[0];
-        last_g = p[1];
-        last_r = p[2];
-        last_label = 0;
-        l[i] = 0;
-        if (sum < min_sum) continue;
-        const int off = std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
-        if (off < grey_margin * sum) continue;
-        const float inv = inverse[sum];
-        const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
-        for (int k = 0; k < n; ++k) {
-          const ColorClass& c = labels_[k];
-          if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
-              std::fabs(cr - c.chroma[2]) <= c.tolerance && sum >= c.min_brightness && sum <= c.max_brightness) {
-            l[i] = static_cast<uchar>(k + 1);
-            last_label = k + 1;
-            x0[k] = std::min(x0[k], i);
-            x1[k] = std::max(x1[k], i);
-            y0[k] = std::min(y0[k], j);
-            y1[k] = std::max(y1[k], j);
-            break;
-          }
-        }
-      }
-    }
-    // findContours needs a background pixel around a blob: grow the boxes by one, within the image.
-    for (int k = 0; k < n; ++k) {
-      if (x1[k] >= 0) {
-        where[k] = cv::Rect(cv::Point(x0[k] - 1, y0[k] - 1), cv::Point(x1[k] + 2, y1[k] + 2)) &
-                   cv::Rect(0, 0, bgr.cols, bgr.rows);
-      }
-    }
-  }
+  const LabelledImage image = labelPixels(bgr, labels_, options_.min_brightness);
   const cv::Mat kernel = options_.morphology_kernel > 1
                              ? cv::getStructuringElement(cv::MORPH_ELLIPSE,
                                                          {options_.morphology_kernel, options_.morphology_kernel})
                              : cv::Mat();
-  // A full-size mask of class k, filled in only within where[k] (nothing of the class is outside it).
-  auto classMask = [&](std::size_t k) {
-    cv::Mat mask = cv::Mat::zeros(bgr.size(), CV_8U);
-    if (where[k].empty()) return mask;
-    cv::Mat part = mask(where[k]);
-    cv::compare(label(where[k]), static_cast<double>(k + 1), part, cv::CMP_EQ);
-    if (!kernel.empty()) cv::morphologyEx(part, part, cv::MORPH_OPEN, kernel);
-    return mask;
-  };
-
-  // Objects, colour class by colour class: with one object of a colour its largest blob; with several, every
-  // blob is measured as each of them and the best-matching pairs are taken (greedy on the mismatch cost).
-  const Measurer measurer{camera_, options_, cam, brightness, bgr.size(), out.downward};
-  std::vector<ObjectDetection> found(catalogue_.objects.size());
-  std::vector<bool> seen(catalogue_.objects.size(), false);
-  for (std::size_t label = 0; label < labels_.size(); ++label) {
-    std::vector<std::size_t> members;
-    for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
-      if (label_of_[i] == static_cast<int>(label) + 1) members.push_back(i);
-    }
-    if (members.empty()) continue;
-    const cv::Mat mask = classMask(label);
-    if (members.size() == 1) {
-      Blob blob;
-      if (!makeBlob(mask, where[label], options_.min_blob_pixels, blob)) continue;
-      double cost = 0;
-      bool cut = false;
-      seen[members[0]] = measurer.measure(catalogue_.objects[members[0]], blob, found[members[0]], cost, cut);
-      continue;
-    }
-    const std::vector<Blob> blobs = allBlobs(mask, where[label], options_.min_blob_pixels, 3 * members.size());
-    struct Candidate {
-      double cost;
-      std::size_t object, blob;
-      bool measured;  // false: cut by the border, plausibly this object but not measurable
-      ObjectDetection det;
-    };
-    std::vector<Candidate> candidates;
-    for (std::size_t b = 0; b < blobs.size(); ++b) {
-      for (std::size_t i : members) {
-        Candidate c{0, i, b, false, {}};
-        bool cut = false;
-        c.measured = measurer.measure(catalogue_.objects[i], blobs[b], c.det, c.cost, cut);
-        if ((c.measured || cut) && c.cost < kMaxMatchCost) candidates.push_back(std::move(c));
-      }
-    }
-    std::sort(candidates.begin(), candidates.end(),
-              [](const Candidate& x, const Candidate& y) { return x.cost < y.cost; });
-    std::vector<bool> blob_taken(blobs.size(), false);
-    for (Candidate& c : candidates) {
-      if (seen[c.object] || blob_taken[c.blob]) continue;
-      blob_taken[c.blob] = true;
-      // A blob that another still-unplaced object of the colour fits about as well (a cut outline, a cylinder
-      // and a ball of one size side-on) is ambiguous: better missing than reported as the wrong object.
-      bool ambiguous = false;
-      for (const Candidate& other : candidates) {
-        ambiguous = ambiguous || (other.blob == c.blob && other.object != c.object && !seen[other.object] &&
-                                  other.cost < c.cost + kAmbiguityMargin);
-      }
-      if (ambiguous || !c.measured) continue;
-      seen[c.object] = true;
-      found[c.object] = std::move(c.det);
-    }
-  }
-  for (std::size_t i = 0; i < catalogue_.objects.size(); ++i) {
-    if (seen[i]) {
-      out.objects.emplace(catalogue_.objects[i].name, std::move(found[i]));
-    } else {
-      out.missing.push_back(catalogue_.objects[i].name);
-    }
-  }
-
-  // The robot, from above: the centre of its body's top face, the heading from the marker.
-  const RobotAppearance& robot = catalogue_.robot;
-  if (robot.present && out.downward) {
-    const std::size_t body_label = label_of_[catalogue_.objects.size()] - 1;
-    const bool has_marker = classes_.size() > catalogue_.objects.size() + 1;
-    const std::size_t marker_label = has_marker ? label_of_[catalogue_.objects.size() + 1] - 1 : 0;
-    Blob body;
-    if (makeBlob(classMask(body_label), where[body_label], options_.min_blob_pixels, body)) {
-      cv::Mat disc = brightestShade(body, brightness, options_.top_face_brightness);
-      cv::Mat marker_mask;
-      if (has_marker) {
-        marker_mask = classMask(marker_label);
-        // The marker sits on the disc and hides part of it: count it in (grown a pixel to close the seam).
-        cv::Mat grown;
-        cv::dilate(marker_mask(body.roi), grown, cv::Mat());
-        cv::bitwise_or(disc, grown, disc);
-      }
-      const std::vector<cv::Point> outline = largestContour(disc, body.roi.tl());
-      Eigen::Vector3d centre;
-      if (outline.size() >= 3) {
-        const cv::Moments m = cv::moments(outline);
-        if (m.m00 > 0) {
-          const cv::Point2d c = toRenderer({m.m10 / m.m00, m.m01 / m.m00});
-          if (cam.toPlane(c.x, c.y, robot.body_top, centre)) {
-            RobotDetection& r = out.robot;
-            r.found = true;
-            r.x = centre.x();
-            r.y = centre.y();
-            r.centroid = body.centroid;
-            r.pixel_area = body.pixels;
-            r.contour = body.contour;
-            const double depth = cam.depth(centre);
-            const double top_area = m.m00 * depth * depth / (camera_.fx * camera_.fy);
-            const double ratio = top_area / robot.body_area;
-            r.confidence = std::min(ratio, 1 / ratio);
-          }
-        }
-      }
-      if (out.robot.found && has_marker) {
-        // The largest marker blob within reach of the body (stray pixels of a nearby yellow thing are smaller):
-        // its top face's centre, on the plane of the marker's top.
-        const double reach = robot.body_radius + robot.marker_offset.head<2>().norm();
-        std::vector<std::vector<cv::Point>> contours;
-        if (!where[marker_label].empty()) {
-          cv::findContours(marker_mask(where[marker_label]), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE,
-                           where[marker_label].tl());
-        }
-        int best = 0;
-        Eigen::Vector3d marker_world;
-        bool seen = false;
-        for (const auto& c : contours) {
-          Blob mb;
-          mb.contour = c;
-          mb.roi = cv::boundingRect(c);
-          cv::Mat filled = cv::Mat::zeros(mb.roi.size(), CV_8U);
-          cv::drawContours(filled, std::vector<std::vector<cv::Point>>{c}, 0, cv::Scalar(255), cv::FILLED, cv::LINE_8,
-                           cv::noArray(), 0, -mb.roi.tl());
-          cv::bitwise_and(filled, marker_mask(mb.roi), mb.mask);
-          const int pixels = cv::countNonZero(mb.mask);
-          if (pixels <= best) continue;
-          const cv::Mat top = brightestShade(mb, brightness, options_.top_face_brightness);
-          const cv::Moments m = cv::moments(top, true);
-          if (m.m00 <= 0) continue;
-          const cv::Point2d p = toRenderer({m.m10 / m.m00 + mb.roi.x, m.m01 / m.m00 + mb.roi.y});
-          Eigen::Vector3d w;
-          if (!cam.toPlane(p.x, p.y, robot.marker_top, w)) continue;
-          if (std::hypot(w.x() - out.robot.x, w.y() - out.robot.y) >= reach) continue;
-          best = pixels;
-          marker_world = w;
-          seen = true;
-        }
-        if (seen && robot.marker_offset.head<2>().norm() > 1e-6) {
-          const double seen_angle = std::atan2(marker_world.y() - out.robot.y, marker_world.x() - out.robot.x);
-          out.robot.yaw = wrapPi(seen_angle - std::atan2(robot.marker_offset.y(), robot.marker_offset.x()));
-          out.robot.yaw_known = true;
-        }
-      }
-    }
-  }
+  const Extraction extraction{catalogue_, camera_, options_, label_of_, classes_, cam, image, kernel, bgr.size(), out};
+  extraction.findObjects();
+  extraction.findRobot();
   return out;
 }
 

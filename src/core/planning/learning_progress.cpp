@@ -264,41 +264,53 @@ void RegionInterestDesign::initialize(unsigned long seed, const DesignOptions& o
   regions_.reset();
 }
 
-ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
+namespace {
+
+// The design's space over the context's objects, with where each object and side stands in it.
+struct DesignSpace {
+  ExperimentSpace space;
+  std::map<std::string, std::size_t> object_index, side_index;
+  std::vector<bool> reachable;  // by object index
+};
+
+DesignSpace designSpace(const DesignContext& context, const DesignOptions& options) {
   if (context.objects.empty()) {
     throw ValidationError("context.objects is empty; there is no object to design an experiment for");
   }
-  ExperimentSpace space;
-  std::map<std::string, std::size_t> object_index, side_index;
-  std::vector<bool> reachable;
+  DesignSpace d;
   for (std::size_t i = 0; i < context.objects.size(); ++i) {
     const auto& o = context.objects[i];
     requireIdentifier("context.objects[" + std::to_string(i) + "].name", o.name);
-    if (!object_index.emplace(o.name, i).second) {
+    if (!d.object_index.emplace(o.name, i).second) {
       throw ValidationError("context.objects[" + std::to_string(i) + "].name '" + o.name +
                             "' is listed twice; object names must be unique");
     }
     throwIfInvalid(o.footprint.check("context.objects[" + std::to_string(i) + "].footprint"));
-    space.objects.push_back(o.name);
-    reachable.push_back(o.reachable);
+    d.space.objects.push_back(o.name);
+    d.reachable.push_back(o.reachable);
   }
-  if (std::none_of(reachable.begin(), reachable.end(), [](bool r) { return r; })) {
+  if (std::none_of(d.reachable.begin(), d.reachable.end(), [](bool r) { return r; })) {
     std::string all;
     for (const auto& o : context.objects) all += (all.empty() ? "'" : ", '") + o.name + "'";
     throw ValidationError("none of the objects (" + all + ") is reachable; there is nothing to push now");
   }
-  space.sides = options_.sides;
-  for (std::size_t i = 0; i < space.sides.size(); ++i) side_index[space.sides[i]] = i;
-  space.min_offset = options_.min_offset;
-  space.max_offset = options_.max_offset;
-  space.min_distance = options_.min_distance;
-  space.max_distance = options_.max_distance;
+  d.space.sides = options.sides;
+  for (std::size_t i = 0; i < d.space.sides.size(); ++i) d.side_index[d.space.sides[i]] = i;
+  d.space.min_offset = options.min_offset;
+  d.space.max_offset = options.max_offset;
+  d.space.min_distance = options.min_distance;
+  d.space.max_distance = options.max_distance;
+  return d;
+}
 
-  // The tree from the history alone: the same history gives the same regions.
+// The tree from the history alone: the same history gives the same regions. Experiments outside the design's
+// space (other objects or sides) are left out.
+std::unique_ptr<AdaptiveRegions> regionsOf(const DesignSpace& d, const DesignContext& context, Interest interest,
+                                           const DesignOptions& options) {
   auto regions = std::make_unique<AdaptiveRegions>(
-      space, interest_, options_.region_max_size, options_.progress_window,
-      ProgressRules{options_.progress_confidence, options_.progress_at_most_error},
-      options_.regions_per_object ? FirstCut::ByObject : FirstCut::None);
+      d.space, interest, options.region_max_size, options.progress_window,
+      ProgressRules{options.progress_confidence, options.progress_at_most_error},
+      options.regions_per_object ? FirstCut::ByObject : FirstCut::None);
   for (std::size_t i = 0; i < context.history.size(); ++i) {
     const PastExperiment& h = context.history[i];
     const std::string at = "context.history[" + std::to_string(i) + "]";
@@ -307,104 +319,131 @@ ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
     }
     requireFinite(at + ".offset", h.offset);
     requireFinite(at + ".distance", h.distance);
-    const auto o = object_index.find(h.object);
-    const auto s = side_index.find(h.side);
-    if (o == object_index.end() || s == side_index.end()) continue;  // outside this design's space
+    const auto o = d.object_index.find(h.object);
+    const auto s = d.side_index.find(h.side);
+    if (o == d.object_index.end() || s == d.side_index.end()) continue;
     const double limit = maxPushOffset(context.objects[o->second].footprint, h.side);
     regions->add({o->second, s->second, limit > 0 ? h.offset / limit : 0.0, h.distance}, h.error);
   }
+  return regions;
+}
 
-  std::mt19937_64 rng = rng_;  // commit only on success
-  if (context.stream) rng.seed(*context.stream);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  auto pick = [&](const std::vector<std::size_t>& from) {
+// One next()'s draws, all from one generator (committed by the caller on success), in a fixed order.
+struct Drawer {
+  const DesignSpace& d;
+  const DesignContext& context;
+  const DesignOptions& options;
+  std::mt19937_64& rng;
+  std::uniform_real_distribution<double> unit{0.0, 1.0};
+  int refused = 0;  // draws context.feasible rejected
+  bool feasible = true;
+
+  std::size_t pick(const std::vector<std::size_t>& from) {
     return from[std::uniform_int_distribution<std::size_t>(0, from.size() - 1)(rng)];
-  };
-  auto point = [&](const Region& r) {
+  }
+
+  // A push drawn uniformly in region @p r, on one of its reachable objects.
+  ExperimentChoice point(const Region& r) {
     std::vector<std::size_t> objects, sides;
-    for (std::size_t i = 0; i < space.objects.size(); ++i) {
-      if (r.objects[i] && reachable[i]) objects.push_back(i);
+    for (std::size_t i = 0; i < d.space.objects.size(); ++i) {
+      if (r.objects[i] && d.reachable[i]) objects.push_back(i);
     }
-    for (std::size_t i = 0; i < space.sides.size(); ++i) {
+    for (std::size_t i = 0; i < d.space.sides.size(); ++i) {
       if (r.sides[i]) sides.push_back(i);
     }
     ExperimentChoice c;
     const std::size_t o = pick(objects);
-    c.object = space.objects[o];
-    c.side = space.sides[pick(sides)];
+    c.object = d.space.objects[o];
+    c.side = d.space.sides[pick(sides)];
     const double fraction = std::uniform_real_distribution<double>(r.offset_lo, r.offset_hi)(rng);
     c.offset = fraction * maxPushOffset(context.objects[o].footprint, c.side);
     c.distance = std::uniform_real_distribution<double>(r.distance_lo, r.distance_hi)(rng);
     return c;
-  };
-  const std::string what = interest_ == Interest::Progress ? "learning progress" : "recent error";
-  int refused = 0;  // draws context.feasible rejected
-  bool feasible = true;
-  ExperimentChoice choice;
-  if (unit(rng) < options_.random_share) {
+  }
+
+  ExperimentChoice atRandom(const AdaptiveRegions& regions) {
     ExperimentChoice last;
-    const auto found = drawFeasible(context, [&] { return last = point(regions->region(0)); }, &refused);
+    const auto found = drawFeasible(context, [&] { return last = point(regions.region(0)); }, &refused);
     feasible = found.has_value();
-    choice = found ? *found : last;
-    choice.rationale = "random exploration (random_share " + describeNumber(options_.random_share) + ")";
-  } else {
+    ExperimentChoice choice = found ? *found : last;
+    choice.rationale = "random exploration (random_share " + describeNumber(options.random_share) + ")";
+    return choice;
+  }
+
+  // One of the @p open leaves by options.region_choice: greedy (epsilon-greedy) or a softmax on @p interest.
+  std::size_t chooseLeaf(const std::vector<std::size_t>& open, const std::vector<double>& interest) {
+    if (options.region_choice == "greedy") {
+      if (unit(rng) < options.epsilon) return pick(open);
+      return *std::max_element(open.begin(), open.end(),
+                               [&](std::size_t a, std::size_t b) { return interest[a] < interest[b]; });
+    }
+    // Temperature relative to the best interest (to the largest |interest| when none is positive), so that it
+    // does not depend on the errors' unit and a noisy region's large fall of progress does not flatten the rest.
+    double largest = 0, top = interest[open.front()];
+    for (std::size_t i : open) {
+      largest = std::max(largest, std::fabs(interest[i]));
+      top = std::max(top, interest[i]);
+    }
+    const double scale = top > 0 ? top : largest;
+    std::vector<double> weights;
+    for (std::size_t i : open) {
+      weights.push_back(scale > 1e-12 ? std::exp((interest[i] - top) / (options.temperature * scale)) : 1.0);
+    }
+    double r = unit(rng) * std::accumulate(weights.begin(), weights.end(), 0.0);
+    for (std::size_t k = 0; k < weights.size(); ++k) {
+      if (r < weights[k]) return open[k];
+      r -= weights[k];
+    }
+    return open.back();
+  }
+
+  ExperimentChoice byInterest(const AdaptiveRegions& regions, const std::string& what) {
     std::vector<int> leaves;
     std::vector<double> interest;
-    for (int leaf : regions->leaves()) {
-      const Region& r = regions->region(leaf);
+    for (int leaf : regions.leaves()) {
+      const Region& r = regions.region(leaf);
       bool any = false;
-      for (std::size_t i = 0; i < r.objects.size(); ++i) any = any || (r.objects[i] && reachable[i]);
+      for (std::size_t i = 0; i < r.objects.size(); ++i) any = any || (r.objects[i] && d.reachable[i]);
       if (!any) continue;
       leaves.push_back(leaf);
-      interest.push_back(regions->interest(leaf));
+      interest.push_back(regions.interest(leaf));
     }
     // A leaf where no push can be done from where the objects are now (an object against a wall, pushed
     // towards it) is left out and the choice made again among the rest.
     std::vector<std::size_t> open(leaves.size());
     std::iota(open.begin(), open.end(), 0);
-    auto choose = [&] {
-      if (options_.region_choice == "greedy") {
-        if (unit(rng) < options_.epsilon) return pick(open);
-        return *std::max_element(open.begin(), open.end(),
-                                 [&](std::size_t a, std::size_t b) { return interest[a] < interest[b]; });
-      }
-      // Temperature relative to the best interest (to the largest |interest| when none is positive), so that it
-      // does not depend on the errors' unit and a noisy region's large fall of progress does not flatten the rest.
-      double largest = 0, top = interest[open.front()];
-      for (std::size_t i : open) {
-        largest = std::max(largest, std::fabs(interest[i]));
-        top = std::max(top, interest[i]);
-      }
-      const double scale = top > 0 ? top : largest;
-      std::vector<double> weights;
-      for (std::size_t i : open) {
-        weights.push_back(scale > 1e-12 ? std::exp((interest[i] - top) / (options_.temperature * scale)) : 1.0);
-      }
-      double r = unit(rng) * std::accumulate(weights.begin(), weights.end(), 0.0);
-      for (std::size_t k = 0; k < weights.size(); ++k) {
-        if (r < weights[k]) return open[k];
-        r -= weights[k];
-      }
-      return open.back();
-    };
-    std::size_t chosen = choose();
+    std::size_t chosen = chooseLeaf(open, interest);
     const std::size_t first_chosen = chosen;
     std::optional<ExperimentChoice> found;
-    while (!(found = drawFeasible(context, [&] { return point(regions->region(leaves[chosen])); }, &refused))) {
+    while (!(found = drawFeasible(context, [&] { return point(regions.region(leaves[chosen])); }, &refused))) {
       open.erase(std::find(open.begin(), open.end(), chosen));
       if (open.empty()) break;
-      chosen = choose();
+      chosen = chooseLeaf(open, interest);
     }
     feasible = found.has_value();
     if (!found) chosen = first_chosen;  // no leaf has a feasible push: the first choice, to be refused downstream
-    choice = found ? *found : point(regions->region(leaves[chosen]));
+    ExperimentChoice choice = found ? *found : point(regions.region(leaves[chosen]));
     std::ostringstream why;
-    why << what << " " << describeNumber(interest[chosen]) << " in region " << regions->describe(leaves[chosen])
-        << " (" << regions->region(leaves[chosen]).members.size() << " experiments; " << leaves.size()
-        << " regions, " << options_.region_choice << ")";
+    why << what << " " << describeNumber(interest[chosen]) << " in region " << regions.describe(leaves[chosen])
+        << " (" << regions.region(leaves[chosen]).members.size() << " experiments; " << leaves.size()
+        << " regions, " << options.region_choice << ")";
     choice.rationale = why.str();
+    return choice;
   }
-  choice.rationale += refusedNote(refused, feasible);
+};
+
+}  // namespace
+
+ExperimentChoice RegionInterestDesign::next(const DesignContext& context) {
+  const DesignSpace d = designSpace(context, options_);
+  std::unique_ptr<AdaptiveRegions> regions = regionsOf(d, context, interest_, options_);
+  std::mt19937_64 rng = rng_;  // commit only on success
+  if (context.stream) rng.seed(*context.stream);
+  Drawer draw{d, context, options_, rng};
+  const std::string what = interest_ == Interest::Progress ? "learning progress" : "recent error";
+  ExperimentChoice choice =
+      draw.unit(rng) < options_.random_share ? draw.atRandom(*regions) : draw.byInterest(*regions, what);
+  choice.rationale += refusedNote(draw.refused, draw.feasible);
   rng_ = rng;
   regions_ = std::move(regions);
   return choice;

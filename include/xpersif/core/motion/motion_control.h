@@ -141,6 +141,15 @@ class GoToPoseController {
  private:
   MotionFeedback finish(MotionPhase phase, const std::string& reason, double distance, double yaw_error);
   Velocity2D limit(Velocity2D wanted, double dt);
+  // update()'s steps; @p bearing is the direction from the robot to the goal's position.
+  /// The phase this update runs in: arrived, turned in place, or driving.
+  void advancePhase(const Pose2D& current, double bearing, double distance, double yaw_error);
+  /// Watches the phase's progress; true when there was none for options_.stall_time.
+  bool stalled(const Pose2D& current, double bearing, double distance, double yaw_error, double dt);
+  /// The wanted command while turning towards the goal or driving to it.
+  Velocity2D approachCommand(const Pose2D& current, double bearing, double distance) const;
+  /// The final turn's end: within the yaw tolerance and near its centre or turned past it.
+  bool finalTurnDone(double yaw_error);
 
   MotionLimits limits_;
   GoToPoseOptions options_;

@@ -52,6 +52,8 @@ class PathPlanner {
 
  private:
   std::string nearestThing(double x, double y) const;
+  /// "" when a path may be planned between these ends, else why not (plan()'s reason).
+  std::string checkEnds(const Pose2D& start, const Pose2D& goal) const;
 
   ArenaGeometry arena_;
   double robot_radius_, margin_, resolution_;

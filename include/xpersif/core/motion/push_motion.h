@@ -121,6 +121,21 @@ class PushController {
   PushFeedback fail(const std::string& reason);
   PushFeedback lineControl(const Pose2D& current, double dt, const Pose2D& to, double speed, bool backwards,
                            bool brake, double& along_out);
+  // update()'s steps.
+  /// The feedback of a push that is not running (idle, done, stopped or failed).
+  PushFeedback idleFeedback() const;
+  /// Driving to the approach pose, not there yet.
+  PushFeedback approachFeedback(const MotionFeedback& m);
+  /// Contact, push and retreat along the push line, in turn as each ends; a done feedback when the retreat ends.
+  PushFeedback followLine(const Pose2D& current, double dt, double pushed, double& along);
+  /// Watches the progress along the line; true when there was none for options_.stall_time.
+  bool stalled(double along, double dt);
+  /// The object resists: retreat from where the robot is (@p pushed past the contact), marked blocked.
+  void backOff(double pushed, double back);
+  /// How much of the whole way (approach, standoff, push, retreat of @p back) is behind the robot.
+  double doneLength(double pushed, double standoff, double back) const;
+  /// @p length as a share of the whole way, 0..1.
+  double share(double length) const;
 
   MotionLimits limits_;
   PushControlOptions options_;
