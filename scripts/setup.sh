@@ -67,10 +67,15 @@ echo "setup: [3/3] configuring and building into build/ (the first build takes a
 # every ctest entry runs under) and leaves out directories that do not exist yet: on a fresh clone PYTHONPATH came
 # out empty and web_bridge.test's Python could not import the package's messages. So they exist before it looks.
 mkdir -p "$repo/build/devel/lib/python3/dist-packages" "$repo/build/devel/lib/pkgconfig"
-# ROS's tools live in /usr/bin/python3; a python3 earlier on the PATH (pyenv) lacks catkin_pkg.
-cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >"$log" 2>&1 ||
-  { tail -50 "$log"; echo "setup: configuring failed (log: build.log)" >&2; exit 1; }
+# ROS's tools live in /usr/bin/python3; a python3 earlier on the PATH (pyenv) lacks catkin_pkg. A configured build
+# is only built: cmake configures it again by itself when a CMakeLists.txt changed.
+if [[ ! -f "$repo/build/CMakeCache.txt" || ! -f "$repo/build/Makefile" ]]; then
+  cmake -S "$repo" -B "$repo/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >"$log" 2>&1 ||
+    { tail -50 "$log"; echo "setup: configuring failed (log: build.log)" >&2; exit 1; }
+else
+  : >"$log"
+fi
 build "the package" || { tail -50 "$log"; echo "setup: the build failed (log: build.log)" >&2; exit 1; }
 if ((with_tests)); then
   # add_rostest_gtest targets are EXCLUDE_FROM_ALL: they are built by the 'tests' target.
