@@ -58,7 +58,8 @@ fi
 # Built already? Then a bad file (or --set) is refused at once, before the build and the master.
 checker="$repo/build/devel/lib/xpersif/xpersif_experiment"
 if [[ -x "$checker" ]]; then
-  "$checker" check "$experiment" "${overrides[@]}" >/dev/null || exit 2
+  "$checker" check "$experiment" --components "$repo/config/loop.yaml,$repo/config/embodiment.yaml" \
+    "${overrides[@]}" >/dev/null || exit 2
 fi
 
 bash "$repo/scripts/setup.sh"

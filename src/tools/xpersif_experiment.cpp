@@ -549,7 +549,9 @@ int main(int argc, char** argv) {
   auto* check_command = app.add_subcommand("check", "check the file (and its world) and print it as it will run");
   check_command->add_option("FILE", file, "the experiment file")->required();
   check_command->add_option("KEY=VALUE", overrides, "keys of the file to change, e.g. seed=3 phases.1.experiments=8");
-  check_command->add_option("--components", configs, "the component configurations the parameters are checked against")
+  check_command->add_option("--components", configs, "the component configurations the parameters are checked against, "
+                                                     "comma-separated")
+      ->allow_extra_args(false)  // one word, split at commas: the words after it are KEY=VALUE
       ->delimiter(',');
   if (const auto done = xpersif::tools::parse(app, words)) return *done;
   if (check_command->parsed()) return check(file, overrides, configs);
