@@ -443,8 +443,9 @@ ExportSummary exportCsv(const std::vector<std::string>& files, const ExportOptio
   ExportSummary summary;
   summary.bags = files.size();
   std::error_code ec;
+  fs::create_directories(options.out_dir, ec);  // as xpersif_report does: a new directory is made, not refused
   if (!fs::is_directory(options.out_dir, ec)) {
-    throw OutputError("output directory '" + options.out_dir + "' does not exist");
+    throw OutputError("output directory '" + options.out_dir + "' cannot be made" + (ec ? ": " + ec.message() : ""));
   }
   const std::regex frames(options.frames_regex);  // throws std::regex_error
 

@@ -268,6 +268,10 @@ TEST(Export, WritesOneRowPerExperimentAndPoses) {
 
   options.pose_period = 0.1;  // at most one row per frame per 0.1 s
   EXPECT_EQ(traces::exportCsv(traces::bagFiles({dir.path()}), options).poses, 10u * 20u);
+
+  options.out_dir = out / "new/tables";  // a directory not made yet is made, as the guide runs it
+  EXPECT_EQ(traces::exportCsv(traces::bagFiles({dir.path()}), options).experiments, 10u);
+  EXPECT_TRUE(std::filesystem::is_regular_file(out / "new/tables/experiments.csv"));
 }
 
 TEST(Export, TruncatedOrGarbageBagsGiveASentenceNamingTheFile) {
