@@ -11,6 +11,8 @@ A command block is a ```bash fence. The line before it must be one marker:
   <!-- doc-test: skip "REASON; covered by TEST" -->  not run here (several hosts, a display, a cluster...); TEST must
                                                be a test of the suite (ctest -N; NAME also stands for the
                                                parametrised NAME__ARGS)
+A run block passes when it exits 0 and every file its output says it wrote ("wrote PATH", "report in PATH",
+"written to PATH", absolute paths) exists.
 Fences of other kinds (```yaml, ```text, ```cpp...) are not commands; a fence without a language, or in ```sh or
 ```console, is refused, so that no command block escapes the test. Run blocks share one scratch environment:
 XPERSIF_RUN_DIR (run.sh's documented variable) points under a temporary directory, so runs write nothing into the
@@ -150,7 +152,26 @@ def run_block(block, repo, scratch):
         code, output = None, (e.stdout or b"").decode(errors="replace") + "\n(timed out after %d s)" % BLOCK_TIMEOUT
     seconds = time.monotonic() - started
     tail = "\n".join(output.rstrip().split("\n")[-15:])
+    if code == 0:
+        missing = missing_outputs(output)
+        if missing:  # it said it wrote them: they must be there
+            return False, seconds, "it said it wrote %s, which %s not there" % (
+                ", ".join(missing), "is" if len(missing) == 1 else "are"), "0, but"
     return code == 0, seconds, tail if code != 0 else "", code
+
+
+# What the tools print about the files they write: "wrote PATH", "report in PATH", "written to PATH".
+WROTE = re.compile(r'(?:\bwrote|\breport in|\bwritten to)\s+(/[^\s:,;()]+)')
+
+
+def missing_outputs(output):
+    """The absolute paths the block's output says were written that do not exist."""
+    paths = []
+    for path in WROTE.findall(output):
+        path = path.rstrip(".")
+        if path not in paths and not os.path.exists(path):
+            paths.append(path)
+    return paths
 
 
 def markdown_files(repo, given):
@@ -221,6 +242,8 @@ def self_test(repo):
             "unlabelled.md": ("```\ntrue\n```\n", "a fence in 'no language'"),
             "skip.md": ('<!-- doc-test: skip "needs a cluster; covered by no_such_test" -->\n```bash\ntrue\n```\n',
                         "not a test of the suite"),
+            "liar.md": ('<!-- doc-test: run -->\n```bash\necho "wrote /nonexistent/xpersif/report.md"\n```\n',
+                        "which is not there"),
         }
         for name, (text, expected) in cases.items():
             path = os.path.join(tmp, name)
@@ -231,15 +254,16 @@ def self_test(repo):
                 failures.append("%s: expected a problem saying '%s', got %s" % (name, expected, problems or "none"))
         good = os.path.join(tmp, "good.md")
         with open(good, "w") as f:
-            f.write('<!-- doc-test: run -->\n```bash\ntest -f package.xml\n```\n\n```yaml\nkey: value\n```\n')
+            f.write('<!-- doc-test: run -->\n```bash\ntest -f package.xml\necho "wrote $PWD/package.xml"\n```\n\n'
+                    '```yaml\nkey: value\n```\n')
         problems, results = run_all(repo, [good], None, set(), False)
         if problems or len(results) != 1:
             failures.append("good.md: expected one passing block and no problem, got %s" % problems)
     for f in failures:
         print("doc_commands self-test: " + f, file=sys.stderr)
     if not failures:
-        print("doc_commands self-test: a broken command, an unmarked block, an unlabelled fence and a skip naming "
-              "no test each fail the test; a good block passes")
+        print("doc_commands self-test: a broken command, a command claiming a file it did not write, an unmarked "
+              "block, an unlabelled fence and a skip naming no test each fail the test; a good block passes")
     return 1 if failures else 0
 
 
