@@ -15,4 +15,5 @@ fi
 bash "$repo/scripts/setup.sh" --tests
 source "$repo/scripts/env.sh"
 set -u
-ctest --test-dir "$repo/build" --output-on-failure "$@"
+# One job per core: the ROS systems run in two lanes of their own (test/CMakeLists.txt, "Scheduling").
+ctest --test-dir "$repo/build" --output-on-failure -j "$(nproc)" "$@"
