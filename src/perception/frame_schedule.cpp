@@ -4,11 +4,13 @@
 
 namespace xpersif {
 
-void FrameSchedule::start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate) {
+void FrameSchedule::start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate,
+                          double max_wall_rate) {
   rate_ = rate;
+  max_wall_rate_ = max_wall_rate;
   lockstep_ = std::make_unique<LockstepClient>(nh, private_nh, private_nh.getNamespace(), true);
   if (!lockstep_->enabled()) {
-    timer_ = private_nh.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { render_(ros::Time()); });
+    timer_ = private_nh.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
     return;
   }
   next_due_ = 0;
@@ -19,6 +21,12 @@ void FrameSchedule::start(const ros::NodeHandle& nh, const ros::NodeHandle& priv
 void FrameSchedule::stop() {
   timer_.stop();
   lockstep_.reset();  // leaves the clock
+}
+
+void FrameSchedule::onTimer() {
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_wall_).toSec() < 1.0 / max_wall_rate_) return;
+  if (render_(ros::Time())) last_wall_ = now;
 }
 
 void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t) {

@@ -49,11 +49,9 @@ void Observation::onConfigure() {
     max_wall_rate_ = max_wall_rate;
     report_address_ = report;
     features_.reset();
-    if (!image_pub_) {
-      image_pub_ = pnh.advertise<sensor_msgs::Image>("image_raw", 2);
-      info_pub_ = pnh.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
-      features_pub_ = pnh.advertise<FeatureVector>("features", 10);
-      if (report_address_) address_pub_ = pnh.advertise<std_msgs::UInt64MultiArray>("buffer_address", 10);
+    frames_.advertise(pnh);
+    if (report_address_ && !address_pub_) {
+      address_pub_ = pnh.advertise<std_msgs::UInt64MultiArray>("buffer_address", 10);
     }
   }
   AggregateComponent::onConfigure();
@@ -61,7 +59,7 @@ void Observation::onConfigure() {
 
 void Observation::onActivate() {
   AggregateComponent::onActivate();
-  schedule_.start(nodeHandle(), privateNodeHandle(), rate_);
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_);
 }
 
 void Observation::onDeactivate() {
@@ -71,16 +69,12 @@ void Observation::onDeactivate() {
 
 bool Observation::tick(const ros::Time& lockstep_stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime now = ros::WallTime::now();
-  // The wall-rate cap is for free-running clocks; in lockstep every due frame is rendered.
-  if (lockstep_stamp.isZero() && (now - last_wall_).toSec() < 1.0 / max_wall_rate_) return false;
   auto camera = camera_.camera();
   if (!camera || !extraction_.ready()) return false;
   try {
     core::FrameTransforms world;
     sensor_msgs::ImagePtr image = camera->render(seq_ + 1, &world);
     if (!image) return false;
-    last_wall_ = now;
     ++seq_;
     const Eigen::Isometry3d world_from_camera = world.at(camera->model().frame);
     auto features = boost::make_shared<FeatureVector>(
@@ -90,10 +84,7 @@ bool Observation::tick(const ros::Time& lockstep_stamp) {
       address.data = {image->header.seq, reinterpret_cast<std::uintptr_t>(image->data.data())};
       address_pub_.publish(address);
     }
-    image_pub_.publish(image);
-    info_pub_.publish(camera->info(image->header));
-    features_.set(features);
-    features_pub_.publish(features);
+    frames_.publish(image, camera->info(image->header), features, features_);
     return true;
   } catch (const std::exception& e) {
     reportError(std::string("observation failed: ") + e.what());

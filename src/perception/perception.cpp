@@ -72,11 +72,7 @@ void Perception::onConfigure() {
     max_wall_rate_ = max_wall_rate;
     features_.reset();
     have_mount_ = false;
-    if (!image_pub_) {
-      image_pub_ = pnh.advertise<sensor_msgs::Image>("image_raw", 2);
-      info_pub_ = pnh.advertise<sensor_msgs::CameraInfo>("camera_info", 2);
-      features_pub_ = pnh.advertise<FeatureVector>("features", 10);
-    }
+    frames_.advertise(pnh);
   }
   AggregateComponent::onConfigure();
 }
@@ -107,7 +103,7 @@ void Perception::onScene(const RenderedCamera& camera) {
 
 void Perception::onActivate() {
   AggregateComponent::onActivate();
-  schedule_.start(nodeHandle(), privateNodeHandle(), rate_);
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_);
 }
 
 void Perception::onDeactivate() {
@@ -117,16 +113,12 @@ void Perception::onDeactivate() {
 
 bool Perception::tick(const ros::Time& lockstep_stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime now = ros::WallTime::now();
-  // The wall-rate cap is for free-running clocks; in lockstep every due frame is rendered.
-  if (lockstep_stamp.isZero() && (now - last_wall_).toSec() < 1.0 / max_wall_rate_) return false;
   auto camera = camera_.camera();
   const nav_msgs::Odometry::ConstPtr odom = odometry_.latest();
   if (!camera || !have_mount_ || !odom || !extraction_.ready()) return false;
   try {
     sensor_msgs::ImagePtr image = camera->render(seq_ + 1);
     if (!image) return false;
-    last_wall_ = now;
     ++seq_;
     const auto& p = odom->pose.pose;
     const double yaw = std::atan2(2.0 * (p.orientation.w * p.orientation.z + p.orientation.x * p.orientation.y),
@@ -137,10 +129,7 @@ bool Perception::tick(const ros::Time& lockstep_stamp) {
     world_from_base.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     auto features = boost::make_shared<FeatureVector>(
         extraction_.extract(*image, world_from_base * base_from_camera_, privateNodeHandle().getNamespace()));
-    image_pub_.publish(image);
-    info_pub_.publish(camera->info(image->header));
-    features_.set(features);
-    features_pub_.publish(features);
+    frames_.publish(image, camera->info(image->header), features, features_);
     return true;
   } catch (const std::exception& e) {
     reportError(std::string("perception failed: ") + e.what());

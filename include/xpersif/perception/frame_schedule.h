@@ -25,26 +25,31 @@ namespace xpersif {
 class FrameSchedule {
  public:
   /// Render, extract and publish one frame; true when it published. Its argument is the lockstep tick's stamp
-  /// (zero on the timer, where the owner caps its wall rate).
+  /// (zero on the timer).
   using Render = std::function<bool(const ros::Time& lockstep_stamp)>;
 
   /// @param camera the part whose camera must have the tick's /tf frame before a lockstep frame is rendered
   FrameSchedule(const CameraPart& camera, Render render) : camera_(camera), render_(std::move(render)) {}
 
   /// On activate: join XPERSim's lockstep clock as a sensor named after @p private_nh's namespace, or, when it
-  /// does not run in lockstep, start a timer at @p rate Hz of ROS time. @throws std::runtime_error when the
-  /// simulator refuses the join
-  void start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate);
+  /// does not run in lockstep, start a timer at @p rate Hz of ROS time that renders at most @p max_wall_rate
+  /// frames per wall second (a fast clock would otherwise render more than a person can watch; in lockstep every
+  /// due frame is rendered). @throws std::runtime_error when the simulator refuses the join
+  void start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate, double max_wall_rate);
   /// On deactivate: stop the timer and leave the clock.
   void stop();
 
  private:
+  /// A timer's frame, unless the last one is less than 1/max_wall_rate wall seconds old.
+  void onTimer();
   /// A SENSE tick (the client's tick thread): render if a frame is due, then report the tick.
   void onTick(LockstepClient& client, const LockstepClient::Tick& tick);
 
   const CameraPart& camera_;
   Render render_;
   double rate_ = 10.0;
+  double max_wall_rate_ = 30.0;
+  ros::WallTime last_wall_;  // timer: when the last frame was published
   double next_due_ = 0;      // lockstep: physics time at which the next frame is due
   std::uint64_t epoch_ = 0;  // lockstep: the world state's epoch the schedule belongs to
   ros::Timer timer_;

@@ -22,6 +22,7 @@
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/frame_publishers.h"
 #include "xpersif/perception/frame_schedule.h"
 #include "xpersif/perception/latest_features.h"
 
@@ -50,9 +51,9 @@ class Observation : public AggregateComponent {
   double rate_ = 10.0, max_wall_rate_ = 30.0;
   bool report_address_ = false;
   std::uint32_t seq_ = 0;
-  ros::WallTime last_wall_;
   LatestFeatures features_;
-  ros::Publisher image_pub_, info_pub_, features_pub_, address_pub_;
+  FramePublishers frames_;
+  ros::Publisher address_pub_;  // test hook: each image's buffer address
   FrameSchedule schedule_;  // renders tick() on a timer or at the lockstep clock's due ticks
 };
 

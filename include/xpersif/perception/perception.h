@@ -22,6 +22,7 @@
 #include "xpersif/component/aggregate.h"
 #include "xpersif/perception/camera_part.h"
 #include "xpersif/perception/feature_extraction_part.h"
+#include "xpersif/perception/frame_publishers.h"
 #include "xpersif/perception/frame_schedule.h"
 #include "xpersif/perception/latest_features.h"
 
@@ -96,9 +97,8 @@ class Perception : public AggregateComponent {
   double base_height_ = 0;
   bool have_mount_ = false;
   std::uint32_t seq_ = 0;
-  ros::WallTime last_wall_;
   LatestFeatures features_;
-  ros::Publisher image_pub_, info_pub_, features_pub_;
+  FramePublishers frames_;
   FrameSchedule schedule_;  // renders tick() on a timer or at the lockstep clock's due ticks
 };
 
