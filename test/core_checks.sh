@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The build's two structural rules, and proof that each check can fail:
+# The build's structural rules, and proof that each check can fail:
 #  1. the ROS-free core read no ROS header (cmake/check_core_includes.py on the core targets' dependency files;
 #     the build runs it too), and the check refuses a probe that includes one;
 #  2. the layers of src/ run one way (cmake/check_layers.py), and the check refuses a copy of the tree with one
-#     include that runs back up.
+#     include that runs back up;
+#  3. every "@file NAME" comment names its own file.
 # usage: core_checks.sh SOURCE_DIR BUILD_DIR
 set -euo pipefail
 src=$1 build=$2
@@ -45,3 +46,17 @@ if out=$(python3 "$src/cmake/check_layers.py" "$tmp/tree" 2>&1); then
 fi
 grep -q "a higher layer" <<<"$out" || fail "the layer check's refusal did not say why: $out"
 echo "core_checks: a core file that includes LOOPMODEL's header is refused: $out"
+
+# 3. A file's "@file NAME" is its own name (files were renamed and moved when the core got its folders).
+misnamed() {  # misnamed DIR...: the files under DIR whose @file names another file
+  local f named
+  while IFS= read -r f; do
+    named=$(grep -m1 -o '@file [^ ]*' "$f" | cut -d' ' -f2 || true)
+    [[ -z "$named" || "$named" == "$(basename "$f")" ]] || echo "${f#"$src"/} (says $named)"
+  done < <(find "$@" -name '*.h' -o -name '*.cpp')
+}
+wrong=$(misnamed "$src/src" "$src/include")
+[[ -z "$wrong" ]] || fail "a file's @file names another file: $wrong"
+printf '/**\n * @file other.h\n */\n' >"$tmp/tree/src/core/common/probe_name.h"
+[[ -n "$(misnamed "$tmp/tree/src/core/common")" ]] || fail "the @file check accepted probe_name.h saying other.h"
+echo "core_checks: every @file names its own file (a probe that names another is refused)"

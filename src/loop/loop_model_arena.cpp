@@ -134,7 +134,7 @@ int LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
       place.request.on_floor = true;
       const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
       if (!why.empty()) {
-        ROS_WARN("%s: could not tidy %s away: %s", name.c_str(), this->name().c_str(), why.c_str());
+        ROS_WARN("%s: could not tidy %s away: %s", this->name().c_str(), name.c_str(), why.c_str());
       } else {
         events().publish(events().make(ComponentEvent::SUPERVISION, "tidy", "ok",
                                        "put " + name + " back at (" + literalNumber(x) + ", " + literalNumber(y) + ")"));

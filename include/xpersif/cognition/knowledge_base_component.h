@@ -1,5 +1,5 @@
 /**
- * @file knowledge_base.h
+ * @file knowledge_base_component.h
  * @brief KNOWLEDGEBASE: the loop's memory as a component — runs, experiments, models, notions and goals in one
  *        SQLite file (core::KnowledgeBase), so that nothing committed is lost and a run can be resumed.
  *

@@ -1,5 +1,5 @@
 /**
- * @file motivation.h
+ * @file motivation_component.h
  * @brief MOTIVATION (aggregate): how surprised the robot was by each push and where it expects to learn the
  *        most (core/motivation.h: surprise, and curiosity as Intelligent Adaptive Curiosity's learning progress).
  *

@@ -1,5 +1,5 @@
 /**
- * @file parameters.h
+ * @file parameter_reader.h
  * @brief Reading a component's parameters through its declarations (core/parameters.h).
  *
  * `ParameterReader::get<T>(name)` returns the value set under the private namespace, or the declared default,

@@ -1,5 +1,5 @@
 /**
- * @file planner.h
+ * @file planner_component.h
  * @brief PLANNER: the operation make_plan, which chains the embodiment's commands and operations into a plan
  *        that reaches a goal, with the STRIPS planner of core/planner.h over the components' own contracts.
  *

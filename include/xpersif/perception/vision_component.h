@@ -1,5 +1,5 @@
 /**
- * @file vision.h (ROS side)
+ * @file vision_component.h (ROS side)
  * @brief VISION: the further features FEATURESELECTION asks for, computed for every object of a feature
  *        vector from the image it came from. Images (`~image_topic`, default observation/image_raw) and
  *        vectors (`~features_topic`, default observation/features) are paired by image sequence number and

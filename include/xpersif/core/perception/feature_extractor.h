@@ -1,5 +1,5 @@
 /**
- * @file perception.h
+ * @file feature_extractor.h
  * @brief FEATUREEXTRACTION, ROS-free: finds the known objects and the robot in a camera image and measures
  *        their world poses from the image alone (OpenCV segmentation + the pinhole model), never from the
  *        simulator's ground truth.
