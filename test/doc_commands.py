@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""The documents run as a test: every command block a reader is meant to type, in README.md and doc/*.md, is run
-on the built tree, and a command that no longer works fails the suite.
+"""The documents run as a test: every command block a reader is meant to type, in README.md, test/README.md and
+doc/*.md, is run on the built tree, and a command that no longer works fails the suite.
 
 A command block is a ```bash fence. The line before it must be one marker:
   <!-- doc-test: run -->                       run the block from the repository root with `bash -e`, in a fresh
@@ -177,7 +177,7 @@ def missing_outputs(output):
 def markdown_files(repo, given):
     if given:
         return given
-    files = [os.path.join(repo, "README.md")]
+    files = [os.path.join(repo, "README.md"), os.path.join(repo, "test", "README.md")]
     doc = os.path.join(repo, "doc")
     files += sorted(os.path.join(doc, f) for f in os.listdir(doc) if f.endswith(".md"))
     return files
