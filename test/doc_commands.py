@@ -11,6 +11,7 @@ A command block is a ```bash fence. The line before it must be one marker:
   <!-- doc-test: skip "REASON; covered by TEST" -->  not run here (several hosts, a display, a cluster...); TEST must
                                                be a test of the suite (ctest -N; NAME also stands for the
                                                parametrised NAME__ARGS)
+Every relative link ([text](path)) must lead to a file or directory of the tree.
 A run block passes when it exits 0 and every file its output says it wrote ("wrote PATH", "report in PATH",
 "written to PATH", absolute paths) exists.
 Fences of other kinds (```yaml, ```text, ```cpp...) are not commands; a fence without a language, or in ```sh or
@@ -174,6 +175,22 @@ def missing_outputs(output):
     return paths
 
 
+LINK = re.compile(r'\[[^\]]*\]\(([^)\s]+)\)')
+
+
+def broken_links(path, shown, text):
+    """Sentences for the relative links of a Markdown file whose file is not there (a web address is not checked)."""
+    problems = []
+    for number, line in enumerate(text.split("\n"), 1):
+        for target in LINK.findall(line):
+            if re.match(r'^[a-z]+:', target) or target.startswith("#"):
+                continue
+            where = os.path.normpath(os.path.join(os.path.dirname(path), target.split("#")[0]))
+            if not os.path.exists(where):
+                problems.append("%s:%d: the link %s leads to nothing (%s)" % (shown, number, target, where))
+    return problems
+
+
 def markdown_files(repo, given):
     if given:
         return given
@@ -205,9 +222,10 @@ def run_all(repo, files, only, tests, listing):
     blocks = []
     for path in files:
         with open(path, encoding="utf-8") as f:
-            found, bad = parse(os.path.relpath(path, repo), f.read())
+            text = f.read()
+        found, bad = parse(os.path.relpath(path, repo), text)
         blocks += found
-        problems += bad
+        problems += bad + broken_links(path, os.path.relpath(path, repo), text)
     for block in blocks:
         why = check_marker(block, tests)
         if why:
@@ -242,6 +260,7 @@ def self_test(repo):
             "unlabelled.md": ("```\ntrue\n```\n", "a fence in 'no language'"),
             "skip.md": ('<!-- doc-test: skip "needs a cluster; covered by no_such_test" -->\n```bash\ntrue\n```\n',
                         "not a test of the suite"),
+            "link.md": ("See [the guide](doc/no-such-guide.md).\n", "leads to nothing"),
             "liar.md": ('<!-- doc-test: run -->\n```bash\necho "wrote /nonexistent/xpersif/report.md"\n```\n',
                         "which is not there"),
         }
@@ -262,8 +281,9 @@ def self_test(repo):
     for f in failures:
         print("doc_commands self-test: " + f, file=sys.stderr)
     if not failures:
-        print("doc_commands self-test: a broken command, a command claiming a file it did not write, an unmarked "
-              "block, an unlabelled fence and a skip naming no test each fail the test; a good block passes")
+        print("doc_commands self-test: a broken command, a command claiming a file it did not write, a link to "
+              "nothing, an unmarked block, an unlabelled fence and a skip naming no test each fail the test; a good "
+              "block passes")
     return 1 if failures else 0
 
 
