@@ -77,6 +77,15 @@ open(t + "/negative_inertia.yaml", "w").write(re.sub(r"urdf:\s*\S+", "urdf: nega
 EOF
 # An experiment file whose world is the word-arena one.
 sed "s#^world: .*#world: $T/word_arena.yaml#" "$HERE/experiments/short.yaml" >"$T/word_arena_experiment.yaml"
+# Worlds the cameras cannot perceive (issue 36): an object the colour of the floor; an overhead camera too coarse
+# for its arena. Both from worlds/ordinary.yaml, its robot's URDF by absolute path.
+sed -e "s#urdf: \.\./urdf/#urdf: $HERE/urdf/#" -e 's/color: \[0.08, 0.08, 0.08, 1.0\]/color: [0.9, 0.9, 0.88, 1.0]/' \
+  "$HERE/worlds/ordinary.yaml" >"$T/floor_coloured.yaml"
+grep -q "black_block.*color: \[0.9, 0.9, 0.88" "$T/floor_coloured.yaml" || { echo "FAIL: could not write the floor-coloured world" >&2; exit 1; }
+sed -e "s#urdf: \.\./urdf/#urdf: $HERE/urdf/#" -e 's/fx: 650.0, fy: 650.0/fx: 400.0, fy: 400.0/' \
+  "$HERE/worlds/ordinary.yaml" >"$T/coarse_camera.yaml"
+grep -q "fx: 400.0" "$T/coarse_camera.yaml" || { echo "FAIL: could not write the coarse-camera world" >&2; exit 1; }
+sed "s#^world: .*#world: $T/floor_coloured.yaml#" "$HERE/experiments/short.yaml" >"$T/floor_coloured_experiment.yaml"
 
 as_nobody=()
 [[ $(id -u) -ne 0 ]] || as_nobody=(setpriv --reuid=65534 --regid=65534 --clear-groups)
@@ -184,6 +193,8 @@ case_ "check-world: a missing world" 3 "missing.yaml" -- "$P" check-world "$T/mi
 case_ "check-world: a world of random bytes" 3 "random.yaml" -- "$P" check-world "$T/random.yaml"
 case_ "check-world: the arena's size a word" 3 "word_arena.yaml: arena.size[0] is 'wide'" -- "$P" check-world "$T/word_arena.yaml"
 case_ "check-world: a URDF with a negative inertia" 3 "not positive definite" -- "$P" check-world "$T/negative_inertia.yaml"
+case_ "check-world: an object the colour of the floor" 3 "cannot find object 'black_block' at the start" -- "$P" check-world "$T/floor_coloured.yaml"
+case_ "check-world: a camera too coarse for its arena" 3 "is too coarse for this arena" -- "$P" check-world "$T/coarse_camera.yaml"
 case_ "rerun: not a run directory" 2 "holds no experiment.yaml" -- "$P" rerun "$T/nobags"
 
 # xpersif_experiment
@@ -196,6 +207,7 @@ case_ "check: a missing file" 2 "missing.yaml" -- "$P" check "$T/missing.yaml"
 case_ "check: random bytes" 2 "random.yaml" -- "$P" check "$T/random.yaml"
 case_ "check: a bad number (seed=abc)" 2 "seed" -- "$P" check "$HERE/experiments/short.yaml" seed=abc
 case_ "check: a world whose arena size is a word" 2 "word_arena.yaml: arena.size[0] is 'wide'" -- "$P" check "$T/word_arena_experiment.yaml"
+case_ "check: a world the cameras cannot perceive" 2 "it looks like the floor" -- "$P" check "$T/floor_coloured_experiment.yaml"
 case_ "as a node: an unexpected argument" 2 "not expected: --seed 3" -- "$P" --seed 3
 case_ "as a node: no master" 1 "no ROS master" -- "$P"
 
@@ -208,6 +220,7 @@ case_ "a bad number: --set seed=abc" 2 "seed" -- bash "$P" "$HERE/experiments/sh
 case_ "a missing experiment file" 2 "no such experiment file" -- bash "$P" "$T/missing.yaml"
 case_ "an experiment file of random bytes" 2 "random.yaml" -- bash "$P" "$T/random.yaml"
 case_ "a directory as experiment file" 2 "not a readable experiment file" -- bash "$P" "$T/nobags"
+case_ "a world the cameras cannot perceive" 2 "it looks like the floor" -- bash "$P" "$HERE/experiments/short.yaml" --set world=$T/floor_coloured.yaml
 case_ "--run-dir under a file" 4 "cannot be created or written" -- bash "$P" --run-dir "$T/file.txt/run"
 
 cat "$OUT"

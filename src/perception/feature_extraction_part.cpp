@@ -3,6 +3,7 @@
 #include "xpersif/component/parameter_reader.h"
 
 #include "xpersif/core/common/validation.h"
+#include "xpersif/core/perception/background.h"
 
 namespace xpersif {
 
@@ -139,8 +140,10 @@ std::string FeatureExtractionPart::problem() const {
 void FeatureExtractionPart::setCamera(const core::SceneDescription& scene, const core::CameraModel& camera) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
+    // The empty arena, rendered from the scene, is subtracted: objects of any colour stand out from it.
     extractor_ = std::make_shared<const core::FeatureExtractor>(core::PerceptionCatalogue::fromScene(scene), camera,
-                                                                options_);
+                                                                options_,
+                                                                std::make_shared<core::RenderedBackground>(scene));
     world_frame_ = scene.world_frame;
     problem_.clear();
   } catch (const std::exception& e) {

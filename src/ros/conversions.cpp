@@ -52,6 +52,10 @@ xpersif::Scene toSceneMsg(const core::SceneDescription& scene) {
   msg.world_file = scene.world_file;
   msg.robot_root = scene.robot_root;
   msg.robot_marker = scene.robot_marker;
+  msg.robot_fiducial = scene.robot_fiducial.node;
+  msg.robot_fiducial_dictionary = scene.robot_fiducial.dictionary;
+  msg.robot_fiducial_id = scene.robot_fiducial.id;
+  msg.robot_fiducial_size = scene.robot_fiducial.size;
   msg.objects = scene.objects;
   msg.arena_size_x = scene.arena_size_x;
   msg.arena_size_y = scene.arena_size_y;
@@ -99,6 +103,8 @@ core::SceneDescription fromSceneMsg(const xpersif::Scene& msg) {
   scene.world_file = msg.world_file;
   scene.robot_root = msg.robot_root;
   scene.robot_marker = msg.robot_marker;
+  scene.robot_fiducial = {msg.robot_fiducial, msg.robot_fiducial_dictionary, msg.robot_fiducial_id,
+                          msg.robot_fiducial_size};
   scene.objects = msg.objects;
   scene.arena_size_x = msg.arena_size_x;
   scene.arena_size_y = msg.arena_size_y;

@@ -24,6 +24,7 @@
 
 #include "xpersif/core/perception/feature_extractor.h"
 #include "xpersif/core/common/command_line.h"
+#include "xpersif/core/perception/perception_check.h"
 #include "xpersif/core/sim/physics_world.h"
 #include "xpersif/core/common/setup.h"
 #include "xpersif/core/common/validation.h"
@@ -329,6 +330,12 @@ int checkWorld(const std::string& file) {
     std::cout << "  pushes of " << catalogue.minPushDistance() << " to " << catalogue.maxPushDistance()
               << " m; tidying keeps objects " << catalogue.wallMargin() << " m from the walls and "
               << catalogue.objectSpacing() << " m apart\n";
+    // The start scene through the cameras, with the loop's FEATUREEXTRACTION: the run this world would have.
+    const xpersif::core::PerceptionCheck perceived =
+        xpersif::core::checkPerception(world.scene(), world.dynamicTransforms());
+    std::cout << "  the cameras at the start:\n" << perceived.describe();
+    const std::string problem = perceived.problem();
+    if (!problem.empty()) throw xpersif::core::ValidationError(file + ": the loop could not run: " + problem);
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "xpersif: " << e.what() << "\n";

@@ -47,6 +47,7 @@
 
 #include "xpersif/core/experiment_spec/experiment_spec.h"
 #include "parameter_catalogue.h"
+#include "xpersif/core/perception/perception_check.h"
 #include "xpersif/core/sim/physics_world.h"
 #include "xpersif/core/sim/world_spec.h"
 #include "xpersif/ExperimentProgress.h"
@@ -86,6 +87,11 @@ void checkWorld(const ExperimentSpec& spec) {
     const auto world = xpersif::core::parseWorld(xpersif::core::worldWithRobot(spec.world, urdf),
                                                  fs::path(spec.world).parent_path().string(), spec.world);
     xpersif::core::PhysicsWorld physics(world);
+    // Seen through its cameras at the start, with the loop's own FEATUREEXTRACTION: a world the loop could not
+    // perceive is refused now, with the reason, not after every experiment has failed.
+    const std::string problem =
+        xpersif::core::checkPerception(physics.scene(), physics.dynamicTransforms()).problem();
+    if (!problem.empty()) throw std::runtime_error(problem + " (`xpersif check-world " + spec.world + "` shows all)");
   } catch (const std::exception& e) {
     throw xpersif::core::ExperimentFileError(spec.file + ": world " + spec.world + " cannot be used: " + e.what());
   }

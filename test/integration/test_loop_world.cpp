@@ -54,6 +54,9 @@ TEST(LoopOnAnyWorld, ExperimentsOnEveryObjectAndTheImmovableNamed) {
   ASSERT_EQ(client.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << client.getState().getText();
   const auto result = client.getResult();
   EXPECT_EQ(result->experiments_done + result->experiments_failed, goal.experiments) << result->message;
+  // A world the cameras and the embodiment can handle runs nearly every experiment it designs.
+  EXPECT_GE(result->experiments_done, 0.9 * goal.experiments)
+      << result->experiments_failed << " of " << goal.experiments << " experiments failed: " << result->message;
 
   xpersif::GetExperiments stored;
   stored.request.run_id = result->run_id;

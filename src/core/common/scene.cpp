@@ -7,6 +7,20 @@
 
 namespace xpersif::core {
 
+const std::vector<std::string>& arucoDictionaryNames() {
+  static const std::vector<std::string> names = {
+      "4x4_50", "4x4_100", "4x4_250", "4x4_1000", "5x5_50", "5x5_100", "5x5_250", "5x5_1000", "6x6_50", "6x6_100",
+      "6x6_250", "6x6_1000", "7x7_50", "7x7_100", "7x7_250", "7x7_1000", "aruco_original", "apriltag_16h5",
+      "apriltag_25h9", "apriltag_36h10", "apriltag_36h11"};
+  return names;
+}
+
+int arucoDictionaryCode(const std::string& name) {
+  const auto& names = arucoDictionaryNames();
+  const auto it = std::find(names.begin(), names.end(), name);
+  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
 const SceneNode* SceneDescription::findNode(const std::string& name) const {
   for (const auto& node : nodes) {
     if (node.name == name) return &node;

@@ -9,6 +9,7 @@
 #include <set>
 #include <utility>
 
+#include "xpersif/core/perception/robot_tracker.h"
 #include "xpersif/core/render/renderer.h"
 #include "xpersif/core/common/validation.h"
 
@@ -655,23 +656,36 @@ float greyMargin(const std::vector<FeatureExtractor::ColorClass>& labels) {
 // grey class). The boxes do not overlap (each is at most half the distance to the next colour), so the first
 // match is the only one.
 LabelledImage labelPixels(const cv::Mat& bgr, const std::vector<FeatureExtractor::ColorClass>& labels,
-                          double min_brightness) {
+                          double min_brightness, const cv::Mat& background, int min_difference) {
   LabelledImage image{cv::Mat(bgr.size(), CV_16U), cv::Mat(bgr.size(), CV_8U), std::vector<cv::Rect>(labels.size())};
   const int n = static_cast<int>(labels.size());
   std::vector<int> x0(n, bgr.cols), y0(n, bgr.rows), x1(n, -1), y1(n, -1);
   std::array<float, 766> inverse;  // 1 / (b + g + r)
   inverse[0] = 0;
   for (int k = 1; k < 766; ++k) inverse[k] = 1.0f / k;
-  const int min_sum = static_cast<int>(std::ceil(min_brightness));
+  // With a background, dark pixels are classified too (a black object differs from the floor); their
+  // chromaticity is unreliable, so they count as neutral grey.
+  const bool subtract = !background.empty();
+  const int min_sum = subtract ? 0 : static_cast<int>(std::ceil(min_brightness));
+  const int dark_sum = static_cast<int>(std::ceil(min_brightness));
   const float grey_margin = greyMargin(labels);
   for (int j = 0; j < bgr.rows; ++j) {
     const uchar* p = bgr.ptr<uchar>(j);
+    const uchar* q = subtract ? background.ptr<uchar>(j) : nullptr;
     ushort* b = image.brightness.ptr<ushort>(j);
     uchar* l = image.label.ptr<uchar>(j);
     int last_b = -1, last_g = -1, last_r = -1, last_label = 0;
     for (int i = 0; i < bgr.cols; ++i, p += 3) {
       const int sum = p[0] + p[1] + p[2];
       b[i] = static_cast<ushort>(sum);
+      if (subtract) {
+        const uchar* bg = q + 3 * i;
+        if (std::abs(p[0] - bg[0]) + std::abs(p[1] - bg[1]) + std::abs(p[2] - bg[2]) < min_difference) {
+          l[i] = 0;  // the empty arena's own pixel: never an object
+          last_b = -1;
+          continue;
+        }
+      }
       // Flat shading paints large runs of identical pixels (the floor above all): reuse the last answer.
       if (p[0] == last_b && p[1] == last_g && p[2] == last_r) {
         l[i] = static_cast<uchar>(last_label);
@@ -687,10 +701,11 @@ LabelledImage labelPixels(const cv::Mat& bgr, const std::vector<FeatureExtractor
       last_label = 0;
       l[i] = 0;
       if (sum < min_sum) continue;
-      const int off = std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
+      const bool dark = subtract && sum < dark_sum;
+      const int off = dark ? 0 : std::max({std::abs(3 * p[0] - sum), std::abs(3 * p[1] - sum), std::abs(3 * p[2] - sum)});
       if (off < grey_margin * sum) continue;
       const float inv = inverse[sum];
-      const float cb = p[0] * inv, cg = p[1] * inv, cr = p[2] * inv;
+      const float cb = dark ? 1.0f / 3 : p[0] * inv, cg = dark ? 1.0f / 3 : p[1] * inv, cr = dark ? 1.0f / 3 : p[2] * inv;
       for (int k = 0; k < n; ++k) {
         const FeatureExtractor::ColorClass& c = labels[k];
         if (std::fabs(cb - c.chroma[0]) <= c.tolerance && std::fabs(cg - c.chroma[1]) <= c.tolerance &&
@@ -984,6 +999,72 @@ std::string describeShape(const Shape& s) {
 
 bool within(double a, double b, double tolerance) { return std::fabs(a - b) <= tolerance * std::max(a, b); }
 
+
+// Every visual of the robot (the root and the nodes below it) in the root's frame, and the fiducial it carries.
+void addRobotParts(const SceneDescription& scene, const FrameTransforms& world, const std::string& robot_root,
+                   RobotAppearance& r) {
+  const Eigen::Isometry3d root_from_world = world.at(robot_root).inverse();
+  std::set<std::string> robot_nodes = {robot_root};
+  for (const SceneNode& node : scene.nodes) {  // parents come before their children
+    if (node.name != robot_root && !robot_nodes.count(node.parent)) continue;
+    robot_nodes.insert(node.name);
+    const Eigen::Isometry3d root_from_node = root_from_world * world.at(node.name);
+    for (Visual v : node.visuals) {
+      v.offset = root_from_node * v.offset;
+      r.parts.push_back(v);
+    }
+  }
+  r.root_height = world.at(robot_root).translation().z();
+  const SceneFiducial& f = scene.robot_fiducial;
+  if (f.node.empty()) return;
+  if (!robot_nodes.count(f.node)) {
+    throw ValidationError("robot fiducial '" + f.node + "' is not a node on the robot '" + robot_root + "'");
+  }
+  r.fiducial.dictionary = arucoDictionaryCode(f.dictionary);
+  if (r.fiducial.dictionary < 0) throw ValidationError("robot fiducial's dictionary '" + f.dictionary + "' is unknown");
+  requirePositive("robot fiducial's size", f.size);
+  r.fiducial.id = f.id;
+  r.fiducial.size = f.size;
+  r.fiducial.root_from_marker = root_from_world * world.at(f.node);
+}
+
+// The robot's body (the root's visual with the largest footprint from above) and heading marker; @p used collects
+// the visuals looked for. A robot with a fiducial needs neither.
+void addRobotLooks(const SceneDescription& scene, const FrameTransforms& world, const std::string& robot_root,
+                   RobotAppearance& r, std::set<const Visual*>& used) {
+  const Visual* body = largestFromAbove(*scene.findNode(robot_root), true, true, false);
+  r.present = true;
+  r.name = robot_root;
+  r.marker_size = Eigen::Vector3d::Zero();  // no marker: the heading comes from the fiducial, or stays unknown
+  if (r.fiducial.dictionary >= 0) return;
+  if (!body) {
+    throw ValidationError("robot root '" + robot_root +
+                          "' has no cylinder or box visual; the perception catalogue needs the robot's body (or give "
+                          "the robot a fiducial in the world file)");
+  }
+  r.body_color = body->color;
+  r.body_shape = body->shape;
+  r.body_radius = body->shape.type == Shape::Type::Box ? 0.5 * body->shape.box_size.head<2>().norm()
+                                                       : body->shape.radius;
+  r.body_area = areaFromAbove(body->shape);
+  const Eigen::Isometry3d world_root = world.at(robot_root);
+  r.body_top = (world_root * body->offset).translation().z() + halfHeight(body->shape);
+  used.insert(body);
+  if (scene.robot_marker.empty()) return;
+  const SceneNode* node = scene.findNode(scene.robot_marker);
+  if (!node) throw ValidationError("robot marker '" + scene.robot_marker + "' names no node of the scene");
+  const Visual* marker = largestFromAbove(*node, true, true, true);
+  if (!marker) throw ValidationError("robot marker '" + scene.robot_marker + "' has no visual to see");
+  const Eigen::Isometry3d world_marker = world.at(node->name) * marker->offset;
+  r.marker_color = marker->color;
+  const Shape& m = marker->shape;
+  r.marker_size = m.type == Shape::Type::Box ? m.box_size
+                                             : Eigen::Vector3d(2 * m.radius, 2 * m.radius, 2 * halfHeight(m));
+  r.marker_offset = world_root.inverse() * world_marker.translation();
+  r.marker_top = world_marker.translation().z() + halfHeight(m);
+  used.insert(marker);
+}
+
 }  // namespace
 
 PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene, const std::string& robot_root_override) {
@@ -999,51 +1080,23 @@ PerceptionCatalogue PerceptionCatalogue::fromScene(const SceneDescription& scene
     cat.objects.push_back({node->name, v->color, v->shape});
     used.insert(v);
   }
-
+  std::set<const Visual*> robot_visuals;
   if (!robot_root.empty()) {
-    const SceneNode* root = scene.findNode(robot_root);
-    if (!root) throw ValidationError("robot root '" + robot_root + "' names no node of the scene");
-    const Visual* body = largestFromAbove(*root, true, true, false);
-    if (!body) {
-      throw ValidationError("robot root '" + robot_root +
-                            "' has no cylinder or box visual; the perception catalogue needs the robot's body");
-    }
-    RobotAppearance& r = cat.robot;
-    r.present = true;
-    r.name = robot_root;
-    r.body_color = body->color;
-    r.body_shape = body->shape;
-    r.body_radius = body->shape.type == Shape::Type::Box ? 0.5 * body->shape.box_size.head<2>().norm()
-                                                         : body->shape.radius;
-    r.body_area = areaFromAbove(body->shape);
-    const Eigen::Isometry3d world_root = world.at(robot_root);
-    const Eigen::Isometry3d world_body = world_root * body->offset;
-    r.body_top = world_body.translation().z() + halfHeight(body->shape);
-    used.insert(body);
-
-    const Visual* marker = nullptr;
-    if (!scene.robot_marker.empty()) {
-      const SceneNode* node = scene.findNode(scene.robot_marker);
-      if (!node) throw ValidationError("robot marker '" + scene.robot_marker + "' names no node of the scene");
-      marker = largestFromAbove(*node, true, true, true);
-      if (!marker) throw ValidationError("robot marker '" + scene.robot_marker + "' has no visual to see");
-      const Eigen::Isometry3d world_marker = world.at(node->name) * marker->offset;
-      r.marker_color = marker->color;
-      const Shape& m = marker->shape;
-      r.marker_size = m.type == Shape::Type::Box
-                          ? m.box_size
-                          : Eigen::Vector3d(2 * m.radius, 2 * m.radius, 2 * halfHeight(m));
-      r.marker_offset = world_root.inverse() * world_marker.translation();
-      r.marker_top = world_marker.translation().z() + halfHeight(m);
-      used.insert(marker);
-    } else {
-      r.marker_size = Eigen::Vector3d::Zero();  // no marker: the heading stays unknown
+    if (!scene.findNode(robot_root)) throw ValidationError("robot root '" + robot_root + "' names no node of the scene");
+    addRobotParts(scene, world, robot_root, cat.robot);
+    addRobotLooks(scene, world, robot_root, cat.robot, used);
+    std::set<std::string> robot_nodes = {robot_root};
+    for (const SceneNode& node : scene.nodes) {
+      if (node.name != robot_root && !robot_nodes.count(node.parent)) continue;
+      robot_nodes.insert(node.name);
+      for (const Visual& v : node.visuals) robot_visuals.insert(&v);
     }
   }
-
   for (const SceneNode& node : scene.nodes) {
     for (const Visual& v : node.visuals) {
-      if (!used.count(&v)) cat.other_colors.push_back(v.color);
+      if (used.count(&v)) continue;
+      cat.other_colors.push_back(v.color);
+      if (robot_visuals.count(&v)) cat.robot_part_colors.push_back(v.color);
     }
   }
   return cat;
@@ -1144,7 +1197,10 @@ struct KnownColour {
 
 // Every colour in view: the first @p looked_for are the ones looked for (the objects', the robot's body and
 // marker), then the scene's other visuals' and the background's.
-std::vector<KnownColour> knownColours(const PerceptionCatalogue& catalogue, std::size_t& looked_for) {
+// With a background model the floor, the walls and the renderer's background are subtracted: only what moves in
+// the foreground competes, the objects and (unless a fiducial finds the robot and its silhouette is cut out) the
+// robot's visuals.
+std::vector<KnownColour> knownColours(const PerceptionCatalogue& catalogue, bool background, std::size_t& looked_for) {
   const RenderOptions render;
   auto shades = [&](const Rgba& c) {
     const double sum = 255.0 * (static_cast<double>(c.r) + c.g + c.b);
@@ -1159,16 +1215,27 @@ std::vector<KnownColour> knownColours(const PerceptionCatalogue& catalogue, std:
   };
   for (const auto& o : catalogue.objects) addKnown("object '" + o.name + "'", o.color);
   const RobotAppearance& r = catalogue.robot;
-  if (r.present) {
+  const bool by_fiducial = r.fiducial.dictionary >= 0;
+  if (r.present && !by_fiducial) {
     addKnown("the robot's body", r.body_color);
     if (r.marker_size.minCoeff() > 0) addKnown("the robot's marker", r.marker_color);
   }
   looked_for = known.size();
+  if (background) {
+    if (r.present && !by_fiducial) {
+      for (const Rgba& c : catalogue.robot_part_colors) addKnown("another visual of the robot", c);
+    }
+    return known;
+  }
   for (const Rgba& c : catalogue.other_colors) addKnown("another visual of the scene", c);
   const cv::Vec3b bg = render.background_bgr;
   const float bg_sum = static_cast<float>(bg[0] + bg[1] + bg[2]);
   known.push_back({"the background", Rgba{bg[2] / 255.0f, bg[1] / 255.0f, bg[0] / 255.0f, 1}, bg_sum - 6, bg_sum + 6});
   return known;
+}
+
+bool robotColour(const KnownColour& c) {
+  return c.name.rfind("the robot", 0) == 0 || c.name.rfind("another visual of the robot", 0) == 0;
 }
 
 // Colours of the same class (same-coloured objects, the first @p objects of @p known) share the label and do not
@@ -1212,7 +1279,10 @@ FeatureExtractor::ColorClass colourClassOf(const std::vector<KnownColour>& known
           " to tell them apart: their chromaticities differ by " + describeNumber(d) +
           " and their shades overlap in brightness (" + describeNumber(cls.min_brightness) + "-" +
           describeNumber(cls.max_brightness) + " against " + describeNumber(known[j].shade_lo) + "-" +
-          describeNumber(known[j].shade_hi) + " of 765); give it another colour, or a clearly darker or lighter one");
+          describeNumber(known[j].shade_hi) + " of 765); give it another colour, or a clearly darker or lighter one" +
+          (robotColour(known[i]) || robotColour(known[j])
+               ? ", or give the robot an ArUco fiducial (robot.fiducial in the world file) to be found by instead"
+               : ""));
     }
   }
   cls.tolerance = std::min(static_cast<float>(max_chroma_tolerance), rest / 2);
@@ -1221,12 +1291,16 @@ FeatureExtractor::ColorClass colourClassOf(const std::vector<KnownColour>& known
 
 }  // namespace
 
-FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera, PerceptionOptions options)
-    : catalogue_(std::move(catalogue)), camera_(std::move(camera)), options_(options) {
+FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera, PerceptionOptions options,
+                                   std::shared_ptr<const BackgroundModel> background)
+    : catalogue_(std::move(catalogue)), camera_(std::move(camera)), options_(options), background_(std::move(background)) {
   checkCameraAndOptions(camera_, options_);
   checkCatalogue(catalogue_);
+  if (catalogue_.robot.present && catalogue_.robot.fiducial.dictionary >= 0) {
+    tracker_ = std::make_shared<const RobotTracker>(catalogue_.robot, camera_);
+  }
   std::size_t looked_for = 0;
-  const std::vector<KnownColour> known = knownColours(catalogue_, looked_for);
+  const std::vector<KnownColour> known = knownColours(catalogue_, background_ != nullptr, looked_for);
   const std::size_t objects = catalogue_.objects.size();
   for (std::size_t i = 0; i < looked_for; ++i) {
     ColorClass cls = colourClassOf(known, i, objects, options_.max_chroma_tolerance);
@@ -1264,14 +1338,31 @@ Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d
   out.world_from_camera = world_from_camera;
   out.downward = isDownward(world_from_camera);
   const Pinhole cam(camera_, world_from_camera);
-  const LabelledImage image = labelPixels(bgr, labels_, options_.min_brightness);
+  cv::Mat background;
+  if (background_) {
+    background = background_->imageFor(camera_, world_from_camera);
+    if (background.size() != bgr.size() || background.type() != bgr.type()) {
+      throw ValidationError("the background model's image for camera '" + camera_.name + "' is " +
+                            std::to_string(background.cols) + " x " + std::to_string(background.rows) +
+                            "; the camera gives " + std::to_string(bgr.cols) + " x " + std::to_string(bgr.rows));
+    }
+  }
+  LabelledImage image = labelPixels(bgr, labels_, options_.min_brightness, background,
+                                    static_cast<int>(std::ceil(options_.background_difference)));
+  if (tracker_ && out.downward) {
+    // Found by its fiducial; its silhouette is cut out so no part of it is taken for an object.
+    out.robot = tracker_->find(bgr, world_from_camera);
+    if (out.robot.found) {
+      image.label.setTo(0, tracker_->silhouette(out.robot, world_from_camera, options_.robot_margin_pixels));
+    }
+  }
   const cv::Mat kernel = options_.morphology_kernel > 1
                              ? cv::getStructuringElement(cv::MORPH_ELLIPSE,
                                                          {options_.morphology_kernel, options_.morphology_kernel})
                              : cv::Mat();
   const Extraction extraction{catalogue_, camera_, options_, label_of_, classes_, cam, image, kernel, bgr.size(), out};
   extraction.findObjects();
-  extraction.findRobot();
+  if (!tracker_) extraction.findRobot();
   return out;
 }
 

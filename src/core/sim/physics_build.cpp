@@ -1,5 +1,6 @@
 // Building the physics world from its spec: the arena, the robot's links and joints (from its URDF), the objects;
 // and the scene description clients render (physics_world.h).
+#include <opencv2/aruco.hpp>
 #include <ode/ode.h>
 
 #include <algorithm>
@@ -205,6 +206,74 @@ void PhysicsWorld::Impl::buildObject(const ObjectSpec& object) {
   objects.emplace_back(object.name, body);
 }
 
+namespace {
+
+// The height of the robot's highest visual above its root link's origin (links at their zero joint angles).
+double robotTop(const RobotSpec& robot) {
+  std::map<std::string, Eigen::Isometry3d> root_from_link;
+  double top = 0;
+  for (const auto& link : robot.links) {
+    const Eigen::Isometry3d pose =
+        link.parent.empty() ? Eigen::Isometry3d::Identity() : root_from_link.at(link.parent) * link.parent_from_link;
+    root_from_link[link.name] = pose;
+    for (const Visual& v : link.visuals) {
+      // Boxes, cylinders and spheres are symmetric about their centre: the top is as far above it as the bottom
+      // is below.
+      const Eigen::Isometry3d at = pose * v.offset;
+      top = std::max(top, 2 * at.translation().z() - lowestPoint(v.shape, at));
+    }
+  }
+  return top;
+}
+
+// The robot's ArUco fiducial as XPERSim shows it: a white plate a cell wider than the marker on each side, on
+// top of the robot, and the marker's black cells (its border and its 0 bits) as thin boxes on the plate, one per
+// run of black cells in a row. The node's origin is the marker's top centre, its x axis the marker image's up.
+SceneNode fiducialNode(const RobotSpec& robot) {
+  constexpr double kPlate = 0.001, kInk = 0.0005, kGap = 0.0005;
+  const RobotSpec::Fiducial& f = robot.fiducial;
+  const cv::Ptr<cv::aruco::Dictionary> dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryCode(f.dictionary));
+  const cv::Mat bits = cv::aruco::Dictionary::getBitsFromByteList(dictionary->bytesList.rowRange(f.id, f.id + 1),
+                                                                  dictionary->markerSize);
+  const int cells = dictionary->markerSize + 2;
+  const double cell = f.size / cells;
+  SceneNode node;
+  node.name = robot.links.front().name + "_fiducial";
+  node.parent = robot.links.front().name;
+  node.parent_from_node = f.offset;
+  node.parent_from_node.translation().z() = robotTop(robot) + kGap + kPlate + kInk;
+  Visual plate;
+  plate.shape.box_size = Eigen::Vector3d(f.size + 2 * cell, f.size + 2 * cell, kPlate);
+  plate.offset.translation().z() = -kInk - kPlate / 2;
+  plate.color = Rgba{1, 1, 1, 1};
+  node.visuals.push_back(plate);
+  auto black = [&](int row, int column) {
+    const bool border = row == 0 || column == 0 || row == cells - 1 || column == cells - 1;
+    return border || bits.at<uchar>(row - 1, column - 1) == 0;
+  };
+  for (int row = 0; row < cells; ++row) {
+    for (int column = 0; column < cells;) {
+      if (!black(row, column)) {
+        ++column;
+        continue;
+      }
+      int end = column;
+      while (end < cells && black(row, end)) ++end;
+      Visual ink;
+      ink.color = Rgba{0, 0, 0, 1};
+      ink.shape.box_size = Eigen::Vector3d(cell, (end - column) * cell, kInk);
+      // Row 0 is the marker's top (+x); column 0 its left (+y), seen from above.
+      ink.offset.translation() = Eigen::Vector3d((cells / 2.0 - row - 0.5) * cell,
+                                                 (cells / 2.0 - (column + end) / 2.0) * cell, -kInk / 2);
+      node.visuals.push_back(ink);
+      column = end;
+    }
+  }
+  return node;
+}
+
+}  // namespace
+
 SceneDescription PhysicsWorld::buildScene() const {
   SceneDescription scene;
   const ArenaSpec& a = spec_.arena;
@@ -212,8 +281,10 @@ SceneDescription PhysicsWorld::buildScene() const {
   scene.arena_size_x = a.size_x;
   scene.arena_size_y = a.size_y;
   if (!spec_.robot.links.empty()) scene.robot_root = spec_.robot.links.front().name;
-  scene.robot_marker = spec_.robot.heading_marker;
-  for (std::size_t i = 1; scene.robot_marker.empty() && i < spec_.robot.links.size(); ++i) {
+  // A fiducial gives the heading; without one, the heading marker (by default the first small box link) does.
+  const bool fiducial = !spec_.robot.fiducial.dictionary.empty() && !spec_.robot.links.empty();
+  scene.robot_marker = fiducial ? "" : spec_.robot.heading_marker;
+  for (std::size_t i = 1; !fiducial && scene.robot_marker.empty() && i < spec_.robot.links.size(); ++i) {
     const auto& visuals = spec_.robot.links[i].visuals;
     if (visuals.size() == 1 && visuals.front().shape.type == Shape::Type::Box) {
       scene.robot_marker = spec_.robot.links[i].name;
@@ -240,6 +311,11 @@ SceneDescription PhysicsWorld::buildScene() const {
     node.parent_from_node = node.dynamic ? now.at(link.name) : link.parent_from_link;
     node.visuals = link.visuals;
     scene.nodes.push_back(node);
+  }
+  if (fiducial) {
+    scene.nodes.push_back(fiducialNode(spec_.robot));
+    scene.robot_fiducial = {scene.nodes.back().name, spec_.robot.fiducial.dictionary, spec_.robot.fiducial.id,
+                            spec_.robot.fiducial.size};
   }
   for (std::size_t i = 0; i < spec_.objects.size(); ++i) {
     const ObjectSpec& o = spec_.objects[i];

@@ -1,6 +1,7 @@
 #include "xpersif/core/sim/world_spec.h"
 
 #include <Eigen/Eigenvalues>
+#include <opencv2/aruco.hpp>
 #include <urdf_parser/urdf_parser.h>
 #include <yaml-cpp/yaml.h>
 
@@ -510,9 +511,31 @@ void parseArena(const YAML::Node& a, const std::string& w, ArenaSpec& arena) {
   arena.floor_color = color(a, "floor_color", arena.floor_color, w);
 }
 
+/// `fiducial: {dictionary: 4x4_50, id: 0, size: 0.04, pose: {x, y, yaw}}`: an ArUco marker on the robot's top.
+void parseFiducial(const YAML::Node& f, const std::string& w, RobotSpec& robot) {
+  if (!f.IsMap()) fail(w, f, "must be a map such as {dictionary: 4x4_50, id: 0, size: 0.04}");
+  rejectUnknownKeys(f, {"dictionary", "id", "size", "pose"}, w);
+  RobotSpec::Fiducial& fiducial = robot.fiducial;
+  fiducial.dictionary = text(f, "dictionary", "4x4_50", w);
+  const int code = arucoDictionaryCode(fiducial.dictionary);
+  if (code < 0) {
+    std::string names;
+    for (const auto& n : arucoDictionaryNames()) names += (names.empty() ? "" : ", ") + n;
+    fail(w + ".dictionary", f["dictionary"], "is not an ArUco dictionary; known: " + names);
+  }
+  const int markers = cv::aruco::getPredefinedDictionary(code)->bytesList.rows;
+  fiducial.id = static_cast<int>(whole(f, "id", 0, 0, markers - 1, w));
+  if (!f["size"]) fail(w, f, "needs 'size', the side of the marker's black square in metres");
+  fiducial.size = asInRange(f["size"], w + ".size", 0.001, 1.0);
+  fiducial.offset = pose(f, w);
+  const double yaw = yawOf(fiducial.offset);
+  fiducial.offset = Eigen::Translation3d(fiducial.offset.translation().x(), fiducial.offset.translation().y(), 0) *
+                    Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+}
+
 RobotSpec parseRobot(const YAML::Node& r, const std::string& w, const std::string& base_dir) {
   rejectUnknownKeys(r, {"urdf", "pose", "left_wheel_joint", "right_wheel_joint", "max_wheel_speed", "max_wheel_torque",
-                        "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker"}, w);
+                        "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker", "fiducial"}, w);
   const std::string urdf_file = text(r, "urdf", "", w);
   if (urdf_file.empty()) fail(w, r, "needs 'urdf', the robot's URDF file");
   const std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
@@ -536,6 +559,7 @@ RobotSpec parseRobot(const YAML::Node& r, const std::string& w, const std::strin
   if (!robot.heading_marker.empty() && !isLink(robot, robot.heading_marker)) {
     fail(w + ".heading_marker", r["heading_marker"], "names '" + robot.heading_marker + "', which is not a link of " + urdf_path);
   }
+  if (r["fiducial"]) parseFiducial(r["fiducial"], w + ".fiducial", robot);
   deriveWheels(robot, w, urdf_path);
   return robot;
 }

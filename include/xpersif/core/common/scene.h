@@ -55,6 +55,22 @@ struct CameraModel {
   double near_clip = 0.005, far_clip = 20.0;
 };
 
+/// An ArUco fiducial on top of the robot, as real overhead tracking set-ups tape one on (world file
+/// `robot.fiducial`). Its node sits at the centre of the marker's top face; the node's x axis points from the
+/// marker image's bottom edge to its top edge, its y axis from the right edge to the left (seen from above).
+struct SceneFiducial {
+  std::string node;        ///< the scene node of the marker ("" = the robot carries none)
+  std::string dictionary;  ///< an ArUco dictionary, one of arucoDictionaryNames(), e.g. "4x4_50"
+  int id = 0;              ///< the marker's id in that dictionary
+  double size = 0;         ///< side of the marker's black square, m (a white margin of one cell surrounds it)
+};
+
+/// ArUco's predefined dictionaries by the world file's names, in OpenCV's order
+/// (cv::aruco::PREDEFINED_DICTIONARY_NAME: "4x4_50" is 0, ..., "apriltag_36h11" is 20).
+const std::vector<std::string>& arucoDictionaryNames();
+/// The index of @p name in arucoDictionaryNames(), or -1.
+int arucoDictionaryCode(const std::string& name);
+
 struct SceneDescription {
   std::string world_frame = "world";
   std::vector<SceneNode> nodes;  ///< parents come before their children
@@ -63,6 +79,7 @@ struct SceneDescription {
   std::string world_file;            ///< the world file the scene was built from (for sentences)
   std::string robot_root;            ///< the robot's root link (a node), "" when the scene has no robot
   std::string robot_marker;          ///< the robot link whose visual marks its heading from above, or ""
+  SceneFiducial robot_fiducial;      ///< the fiducial the overhead camera finds the robot by (node "" = none)
   std::vector<std::string> objects;  ///< the objects to experiment with (top-level dynamic nodes), in file order
   double arena_size_x = 0, arena_size_y = 0;  ///< the arena's inner extents, centred on the world origin
   std::vector<CameraModel> cameras;

@@ -53,6 +53,7 @@
 
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -87,6 +88,18 @@ struct RobotAppearance {
   Eigen::Vector3d marker_offset{0.03, 0, 0.018};  ///< marker centre in the root link's frame, m
   Eigen::Vector3d marker_size{0.006, 0.01, 0.006};  ///< marker's bounding box; zero when there is no marker
   double marker_top = 0.039;      ///< height of the marker's top above the floor, m
+  /// An ArUco fiducial on its top (SceneFiducial). With one, the robot is found by it alone: its body and marker
+  /// colours are not looked for, and its silhouette is cut out of the image before the objects are looked for.
+  struct Fiducial {
+    int dictionary = -1;  ///< cv::aruco::PREDEFINED_DICTIONARY_NAME; -1 = none
+    int id = 0;
+    double size = 0;      ///< the black square's side, m
+    Eigen::Isometry3d root_from_marker = Eigen::Isometry3d::Identity();  ///< the marker's top centre
+  } fiducial;
+  double root_height = 0;         ///< height of the root link's origin above the floor, m
+  /// Every visual of the robot (its links at zero joint angles, the fiducial) in the root link's frame: the
+  /// silhouette cut out of the image once the robot is found.
+  std::vector<Visual> parts;
 };
 
 /// What to look for.
@@ -96,6 +109,9 @@ struct PerceptionCatalogue {
   /// Colours of everything else in view (floor, walls, wheels...): never reported, but they bound how loose
   /// each catalogue colour's threshold may be. The renderer's grey background is always added by the extractor.
   std::vector<Rgba> other_colors;
+  /// The robot's visuals' colours besides its body and marker (wheels, housings): with a background model and no
+  /// fiducial these move in the foreground beside the objects, so the objects' colours are told apart from them.
+  std::vector<Rgba> robot_part_colors;
 
   /**
    * @brief From XPERSim's scene and its roles: the objects are the nodes named in scene.objects (each with one
@@ -141,6 +157,23 @@ struct PerceptionOptions {
   double min_top_fraction = 0.5;
   /// Morphological opening kernel (pixels, odd; 1 = none) applied to each colour mask.
   int morphology_kernel = 1;
+  /// With a background model: a pixel is foreground when |b - b0| + |g - g0| + |r - r0| against the empty
+  /// arena's pixel reaches this (0..765). Everything else (floor, walls) is never looked at.
+  double background_difference = 24;
+  /// Pixels added around the robot's silhouette when it is cut out (for the error of its measured pose).
+  int robot_margin_pixels = 2;
+};
+
+/**
+ * @brief What a camera sees of the empty arena: the background that FEATUREEXTRACTION subtracts, so that an
+ *        object is found by differing from what lies behind it, whatever its colour. A real set-up learns it
+ *        from frames of the empty arena; XPERSim knows its scene and renders it (RenderedBackground).
+ */
+class BackgroundModel {
+ public:
+  virtual ~BackgroundModel() = default;
+  /// The empty arena as @p camera sees it from @p world_from_camera (CV_8UC3, camera.height x camera.width).
+  virtual cv::Mat imageFor(const CameraModel& camera, const Eigen::Isometry3d& world_from_camera) const = 0;
 };
 
 /// One object found in the image.
@@ -195,7 +228,8 @@ class FeatureExtractor {
    *         possible brightness to tell apart (the sentence names both), or bad options
    */
   FeatureExtractor(PerceptionCatalogue catalogue, CameraModel camera,
-                   PerceptionOptions options = PerceptionOptions());
+                   PerceptionOptions options = PerceptionOptions(),
+                   std::shared_ptr<const BackgroundModel> background = nullptr);
 
   /**
    * @brief Finds the catalogue's objects (and, with a downward camera, the robot) in @p bgr.
@@ -211,6 +245,8 @@ class FeatureExtractor {
   const PerceptionCatalogue& catalogue() const { return catalogue_; }
   const CameraModel& camera() const { return camera_; }
   const PerceptionOptions& options() const { return options_; }
+  /// The background subtracted before looking for colours, or nullptr (colours alone, told from everything in view).
+  const BackgroundModel* background() const { return background_.get(); }
 
   /// The chromaticity box used for each catalogue object (by name), for diagnostics: centre and half-width.
   /// Objects of one colour have equal boxes and share one pixel label.
@@ -233,6 +269,8 @@ class FeatureExtractor {
   // share one. labels_[l - 1] is the ColorClass that label l stands for.
   std::vector<int> label_of_;
   std::vector<ColorClass> labels_;
+  std::shared_ptr<const BackgroundModel> background_;
+  std::shared_ptr<const class RobotTracker> tracker_;  // with a fiducial: finds the robot and its silhouette
 };
 
 /// @p yaw folded into (-period/2, period/2].

@@ -83,6 +83,15 @@ struct RobotSpec {
   /// The link whose visual marks the heading from above (world file `heading_marker`); "" = the first link
   /// below the root with exactly one box visual, if any.
   std::string heading_marker;
+  /// An ArUco fiducial on the robot's top (world file `robot.fiducial`): dictionary "" = none. The overhead camera
+  /// then finds the robot by it, whatever the colours of the robot's visuals, and heading_marker is not used.
+  struct Fiducial {
+    std::string dictionary;  ///< one of arucoDictionaryNames(); "" = no fiducial
+    int id = 0;
+    double size = 0;         ///< the black square's side, m
+    /// root_from_marker in the horizontal plane (x, y, yaw); its height is filled in above the robot's top
+    Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  } fiducial;
 };
 
 struct ObjectSpec {
