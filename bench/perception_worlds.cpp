@@ -2,6 +2,7 @@
 // placements: with the empty arena subtracted (what the loop runs) and, where the world's colours allow it,
 // colours alone (the extractor before issue 36), on the same images. See perception.md.
 //   perception_worlds [placements] [seed]
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -73,16 +74,18 @@ int main(int argc, char** argv) {
   }
   std::sort(files.begin(), files.end());
   std::cout << "| world | object (shape) | overhead found | overhead error median / p95, mm | yaw p95, ° | "
-               "colours alone: found | error, mm | yaw | robot camera found | error, mm | yaw |\n"
-               "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n";
+               "colours alone: found | error, mm | yaw | robot camera found | error, mm | yaw | colours alone: found | "
+               "error, mm | yaw |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n";
+  std::vector<std::string> speeds;
   for (const auto& file : files) {
     const PhysicsWorld world(loadWorldFile(file));
     const SceneDescription& scene = world.scene();
     const PerceptionCatalogue catalogue = PerceptionCatalogue::fromScene(scene);
     auto background = std::make_shared<RenderedBackground>(scene);
     const Renderer renderer(scene);
-    std::map<std::string, Tally> over, alone, forward;
+    std::map<std::string, Tally> over, alone, forward, forward_alone;
     Tally robot_over;
+    std::vector<double> ms_with, ms_alone;  // overhead extract() wall time
     std::vector<double> robot_errors, robot_yaw;
     std::mt19937 rng(seed);
     const double hx = 0.5 * scene.arena_size_x - 0.07, hy = 0.5 * scene.arena_size_y - 0.07;
@@ -113,15 +116,23 @@ int main(int argc, char** argv) {
         cv::Mat image;
         renderer.render(camera, pose, w, image);
         const FeatureExtractor with(catalogue, camera, PerceptionOptions(), background);
+        auto t0 = std::chrono::steady_clock::now();
         const Detections d = with.extract(image, pose);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         const bool down = with.isDownward(pose);
         for (const auto& name : scene.objects) (down ? over : forward)[name].add(w, name, d);
-        if (down) {
-          try {
-            const Detections c = FeatureExtractor(catalogue, camera).extract(image, pose);
-            for (const auto& name : scene.objects) alone[name].add(w, name, c);
-          } catch (const std::exception&) {  // colours alone cannot tell this world's colours apart
+        try {
+          const FeatureExtractor colours(catalogue, camera);
+          t0 = std::chrono::steady_clock::now();
+          const Detections c = colours.extract(image, pose);
+          if (with.isDownward(pose)) {
+            ms_alone.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
           }
+          for (const auto& name : scene.objects) (down ? alone : forward_alone)[name].add(w, name, c);
+        } catch (const std::exception&) {  // colours alone cannot tell this world's colours apart
+        }
+        if (down) {
+          ms_with.push_back(ms);
           ++robot_over.seen;
           if (d.robot.found && d.robot.yaw_known) {
             ++robot_over.found;
@@ -135,13 +146,19 @@ int main(int argc, char** argv) {
     const std::string world_name = std::filesystem::path(file).stem().string();
     for (const auto& o : catalogue.objects) {
       std::cout << "| " << world_name << " | " << o.name << " (" << describe(o.shape) << ") " << over[o.name].row()
-                << " " << alone[o.name].row().substr(1) << " " << forward[o.name].row().substr(1) << "\n";
+                << " " << alone[o.name].row().substr(1) << " " << forward[o.name].row().substr(1) << " "
+                << forward_alone[o.name].row().substr(1) << "\n";
     }
     robot_over.errors = robot_errors;
     robot_over.yaw_errors = robot_yaw;
     std::cout << "| " << world_name << " | robot " << scene.robot_root
               << (scene.robot_fiducial.node.empty() ? " (colour marker)" : " (fiducial)") << " " << robot_over.row()
-              << " | | | | | |\n";
+              << " | | | | | | | | |\n";
+    speeds.push_back("| " + world_name + " | " + std::to_string(Tally::quantile(ms_with, 0.5)).substr(0, 5) + " | " +
+                     (ms_alone.empty() ? std::string("–") : std::to_string(Tally::quantile(ms_alone, 0.5)).substr(0, 5)) +
+                     " |");
   }
+  std::cout << "\n| world | overhead extract() median, ms: empty arena subtracted | colours alone |\n| --- | --- | --- |\n";
+  for (const auto& line : speeds) std::cout << line << "\n";
   return 0;
 }

@@ -227,9 +227,10 @@ PerceptionCheck checkPerception(const SceneDescription& scene, const FrameTransf
     CameraPerception out;
     out.camera = camera.name;
     const SceneImages images{scene, world, camera, cameraWorldPose(scene, world, camera)};
+    const Eigen::Vector3d axis = images.pose.linear().col(2).normalized();
+    out.downward = std::acos(std::clamp(-axis.z(), -1.0, 1.0)) <= options.max_downward_tilt;  // as isDownward()
     try {
       const FeatureExtractor extractor(catalogue, camera, options, background);
-      out.downward = extractor.isDownward(images.pose);
       if (out.downward) {
         out.refusal = checkCoverage(catalogue, camera, images.pose, scene.arena_size_x, scene.arena_size_y);
       }
@@ -268,8 +269,8 @@ std::string PerceptionCheck::problem() const {
 
 std::string PerceptionCheck::describe() const {
   std::ostringstream out;
-  auto line = [&](const PerceivedThing& t) {
-    out << "    " << t.name << ": ";
+  auto line = [&](const PerceivedThing& t, bool robot) {
+    out << "    " << (robot ? "robot '" + t.name + "'" : t.name) << ": ";
     if (!t.found) {
       out << "not found: " << t.reason << "\n";
       return;
@@ -286,8 +287,8 @@ std::string PerceptionCheck::describe() const {
       continue;
     }
     out << ":\n";
-    for (const PerceivedThing& t : c.objects) line(t);
-    if (c.robot_looked_for) line(c.robot);
+    for (const PerceivedThing& t : c.objects) line(t, false);
+    if (c.robot_looked_for) line(c.robot, true);
   }
   return out.str();
 }
