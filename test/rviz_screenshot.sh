@@ -1,8 +1,16 @@
 #!/usr/bin/env bash
-# What a person sees: XPERSim with rviz under Xvfb (software GL), a screenshot, and a check that the
-# red, green and blue cubes are drawn where they are relative to each other (top-down view, x right,
-# y up): red (0.05, 0.15) and green (0.05, -0.15) left of blue (0.25, 0), red above green.
+# What a person sees: XPERSim with rviz under Xvfb (software GL), a screenshot, and a check of it (top-down view,
+# x right, y up). `rviz_screenshot.sh` (the default world): the red, green and blue cubes drawn where they are
+# relative to each other, red (0.05, 0.15) and green (0.05, -0.15) left of blue (0.25, 0), red above green.
+# `rviz_screenshot.sh fiducial` (worlds/ordinary.yaml): the robot's ArUco fiducial drawn on it, a white plate
+# holding black cells, left of the arena's centre where the robot starts (-0.5, 0).
 set -euo pipefail
+mode=${1:-cubes}
+case "$mode" in
+  cubes) world_arg=() ;;
+  fiducial) world_arg=(world:="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/worlds/ordinary.yaml") ;;
+  *) echo "rviz_screenshot.sh: unknown check '$mode' (cubes or fiducial)" >&2; exit 2 ;;
+esac
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 work=$(mktemp -d)
@@ -18,7 +26,7 @@ cleanup() {
 trap cleanup EXIT
 export DISPLAY=$display LIBGL_ALWAYS_SOFTWARE=1
 roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersim.launch rviz:=true rviz_config:="$repo/test/rviz_topdown.rviz" \
-  >"$work/launch.log" 2>&1 &
+  "${world_arg[@]}" >"$work/launch.log" 2>&1 &
 launch=$!
 # Software GL is slow to start: wait until rviz has a window, then a little for markers and the robot.
 for _ in $(seq 1 90); do
@@ -27,10 +35,10 @@ for _ in $(seq 1 90); do
 done
 sleep 12
 /usr/bin/import -window root "$work/shot.png"
-cp "$work/shot.png" "${RVIZ_SCREENSHOT:-/tmp/xpersif_rviz_screenshot.png}"
-/usr/bin/python3 - "$work/shot.png" <<'PY'
+cp "$work/shot.png" "${RVIZ_SCREENSHOT:-/tmp/xpersif_rviz_screenshot_$mode.png}"
+/usr/bin/python3 - "$work/shot.png" "$mode" <<'PY'
 import subprocess, sys
-png = sys.argv[1]
+png, mode = sys.argv[1], sys.argv[2]
 size = subprocess.check_output(["/usr/bin/identify", "-format", "%w %h", png]).decode().split()
 w, h = int(size[0]), int(size[1])
 raw = subprocess.check_output(["/usr/bin/convert", png, "-depth", "8", "rgb:-"])
@@ -43,6 +51,28 @@ def centroid(test):
             if test(r, g, b):
                 xs += x; ys += y; n += 1
     return (xs / n, ys / n, n) if n else None
+if mode == "fiducial":
+    # The 3D view is right of the display panel (x > 350, 62 < y < 780); the plate is the only pure white there.
+    xs, ys = [], []
+    for y in range(62, min(h, 780)):
+        row = y * w * 3
+        for x in range(350, w):
+            if min(raw[row + 3 * x:row + 3 * x + 3]) >= 250:
+                xs.append(x); ys.append(y)
+    if not xs:
+        print("FAIL: no white fiducial plate in the screenshot")
+        sys.exit(1)
+    x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+    dark = sum(1 for y in range(y0, y1 + 1) for x in range(x0, x1 + 1) if max(raw[y * w * 3 + 3 * x:y * w * 3 + 3 * x + 3]) < 40)
+    share = dark / float((x1 - x0 + 1) * (y1 - y0 + 1))
+    view_centre = (350 + w) / 2.0
+    print("rviz screenshot %dx%d: plate %d..%d x %d..%d, %.2f of it black cells" % (w, h, x0, x1, y0, y1, share))
+    ok = 10 < x1 - x0 < 120 and 10 < y1 - y0 < 120 and 0.25 < share < 0.75 and (x0 + x1) / 2.0 < view_centre
+    if not ok:
+        print("FAIL: the robot's fiducial is missing, misshapen or misplaced in the screenshot")
+        sys.exit(1)
+    print("1 passed, 0 failed")
+    sys.exit(0)
 red = centroid(lambda r, g, b: r > 150 and g < 80 and b < 80)
 green = centroid(lambda r, g, b: g > 120 and r < 80 and b < 90)
 blue = centroid(lambda r, g, b: b > 150 and r < 80 and g < 100)
