@@ -90,7 +90,9 @@ std::optional<ComponentStatus> statusOf(ros::NodeHandle& nh, const std::string& 
   return heard->status;
 }
 
-std::string upper(std::string name) {
+/// A component's name as the sentences write it: "/xpersif/observation" is OBSERVATION.
+std::string upper(const std::string& resolved) {
+  std::string name = resolved.substr(resolved.rfind('/') + 1);
   for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return name;
 }
