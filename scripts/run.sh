@@ -16,7 +16,8 @@
 # Everything goes to the run directory (runs/<time>/ by default): report.md, learning_curve.png/.csv,
 # knowledge.db, the experiment as run and its provenance, launch.log, ros_log/.
 # Exit status (doc/exit-codes.md): 0 done, 1 a phase or the report failed, 2 usage or a bad experiment file
-# (nothing started), 4 the run directory cannot be written.
+# (nothing started), 4 the run directory cannot be written, 5 a phase stopped on a cause that fails every experiment
+# (the loop cannot perceive: doc/loop.md#when-the-loop-cannot-perceive).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiment="$repo/experiments/default.yaml" overrides=() run_dir="${XPERSIF_RUN_DIR:-}" files=0 hosts=""
@@ -31,7 +32,8 @@ Runs an experiment file from start to end, headless, on a roscore of its own (in
   --hosts 'ARGS'   where the parts run: xpersif.launch's host arguments, e.g. 'sim_host=10.0.0.5' (doc/hosts.md)
   -h, --help       print this usage
 Exit codes: 0 done; 1 a phase or the report failed; 2 usage or a bad experiment file (nothing started);
-4 the run directory cannot be written (doc/exit-codes.md).
+4 the run directory cannot be written; 5 a phase stopped on a cause that fails every experiment (the loop
+cannot perceive; doc/exit-codes.md).
 TEXT
 }
 usage() { echo "run.sh: $*" >&2; help >&2; exit 2; }

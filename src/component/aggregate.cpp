@@ -1,5 +1,7 @@
 #include "xpersif/component/aggregate.h"
 
+#include <tuple>
+
 namespace xpersif {
 
 template <class Step>
@@ -53,10 +55,8 @@ void AggregateComponent::fillStatus(ComponentStatus& status) {
     part.name = parts_[i]->name();
     part.state = static_cast<std::uint8_t>(part_states_[i]);
     part.state_name = toString(part_states_[i]);
-    part.message = parts_[i]->problem();
-    part.health = part_states_[i] == LifecycleState::Error ? ComponentStatus::HEALTH_ERROR
-                  : part.message.empty()                    ? ComponentStatus::HEALTH_OK
-                                                            : ComponentStatus::HEALTH_WARN;
+    std::tie(part.health, part.message) = parts_[i]->diagnose();
+    if (part_states_[i] == LifecycleState::Error) part.health = ComponentStatus::HEALTH_ERROR;
     if (part.health > status.health) status.health = part.health;
     status.parts.push_back(part);
   }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "xpersif/core/common/validation.h"
+
 namespace xpersif {
 
 namespace {
@@ -85,12 +87,25 @@ std::string RobotPoseSource::pose(const std::string& source, core::Pose2D* pose)
   std::lock_guard<std::mutex> lock(mutex_);
   if (!correction_.hasOdometry()) return "no odometry has arrived yet";
   if (source == "observation") {
-    if (!correction_.corrected()) return "the overhead camera has not seen the robot yet";
+    if (!correction_.corrected()) return "the overhead camera has not seen the robot yet: " + whyNotSeen();
     *pose = correction_.estimate();
   } else {
     *pose = correction_.odometry();
   }
   return "";
+}
+
+std::string RobotPoseSource::whyNotSeen() const {
+  if (!observation_) return "no feature vector of the overhead camera has arrived";
+  const FeatureVector& seen = *observation_;
+  const std::string from = (seen.source.empty() ? std::string("the overhead camera") : seen.source) + "'s latest " +
+                           "feature vector (image of t = " + core::describeNumber(seen.header.stamp.toSec()) + " s)";
+  if (!seen.robot_found) {
+    return from + " lists the robot as not found (" + std::to_string(seen.objects.size()) + " objects found, " +
+           std::to_string(seen.missing.size()) + " missing)";
+  }
+  if (pending_fix_) return from + " found the robot; that sighting waits for the odometry of its instant";
+  return from + " found the robot, but no sighting could be matched with the odometry";
 }
 
 std::string RobotPoseSource::poseForCommand(const std::string& source, core::Pose2D* pose_out,

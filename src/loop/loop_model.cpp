@@ -148,7 +148,11 @@ const core::ParameterTable& LoopModel::parameters() {
                                "s of wall time to wait for MACHINELEARNING's model of the latest experiment"),
          core::intParameter("select_features_after", 16, 0, 100000,
                             "FEATURESELECTION chooses the features learned from once a run has this many experiments "
-                            "and goes on (0: never)")});
+                            "and goes on (0: never)"),
+         core::intParameter("max_same_failures", 3, 0, 100000,
+                            "the experimentation phase ends, and the run with it, once this many consecutive "
+                            "experiments failed for the same cause (the robot or an object not seen, a stage "
+                            "refused with the same code; doc/loop.md); 0: never")});
     own.include(Supervisor::parameters()).include(LockstepClient::parameters());
     return own;
   }();
@@ -173,6 +177,7 @@ void LoopModel::onConfigure() {
   const double goal_tolerance = parameters.get<double>("goal_tolerance");
   const int max_goal_pushes = parameters.get<int>("max_goal_pushes");
   const double learning_timeout = parameters.get<double>("learning_timeout");
+  const int max_same_failures = parameters.get<int>("max_same_failures");
   {
     std::lock_guard<std::mutex> lock(mutex_);
     setup_ = setup;
@@ -188,6 +193,7 @@ void LoopModel::onConfigure() {
     max_goal_pushes_ = max_goal_pushes;
     learning_timeout_ = learning_timeout;
     select_features_after_ = static_cast<std::uint32_t>(select_features_after);
+    max_same_failures_ = static_cast<std::uint32_t>(max_same_failures);
     progress_.state = "idle";
     if (!progress_pub_) progress_pub_ = pnh.advertise<RunLoopFeedback>("progress", 1, true);
   }

@@ -6,6 +6,7 @@
  */
 #include "xpersif/loop/loop_model.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "xpersif/Predict.h"
@@ -32,36 +33,63 @@ double foldedDifference(double a, double b, double period) {
 }  // namespace
 
 void LoopModel::runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
-                              ExperimentRecord& record) {
+                              ExperimentRecord& record, StageFailure* failure) {
   record.design = design;
   record.experiment = experiment;
   record.status = "failed";
   record.started = ros::Time::now().toSec();
+  StageFailure ignored;
+  StageFailure& failed = failure ? *failure : ignored;
+  failed = StageFailure();
   MakePlan plan;
-  std::string why = planExperiment(experiment, context, plan);
-  if (why.empty()) why = executePlan(plan, context, record);
-  if (why.empty()) why = compareWithPrediction(experiment, record);
+  std::string why = planExperiment(experiment, context, plan, failed);
+  if (why.empty()) why = executePlan(plan, context, record, failed);
+  if (why.empty()) why = compareWithPrediction(experiment, record, failed);
   if (why.empty()) {
     record.status = "done";
+    failed = StageFailure();
   } else {
     record.reason = why;
   }
   record.finished = ros::Time::now().toSec();
 }
 
-std::string LoopModel::planExperiment(const Experiment& experiment, Run::Context& context, MakePlan& plan) {
+core::FailureEvidence LoopModel::evidenceOf(const ExperimentRecord& record, const StageFailure& failure,
+                                            const FeatureVector& scene) const {
+  core::FailureEvidence evidence;
+  evidence.failed = record.status != "done";
+  evidence.stage = failure.stage;
+  evidence.code = failure.code;
+  evidence.tried_and_failed = failure.code == ResultCode::FAILED;
+  evidence.robot_pose_observed = pose_source_ == "observation";
+  // The overhead camera's latest word before the failure: the plan's last observation, else the step's scene.
+  const FeatureVector& seen = failure.seen ? *failure.seen : scene;
+  evidence.have_vector = !seen.header.stamp.isZero() || !seen.objects.empty() || !seen.missing.empty();
+  evidence.robot_found = seen.robot_found;
+  evidence.object = record.experiment.object;
+  evidence.object_missing =
+      std::find(seen.missing.begin(), seen.missing.end(), record.experiment.object) != seen.missing.end();
+  return evidence;
+}
+
+std::string LoopModel::planExperiment(const Experiment& experiment, Run::Context& context, MakePlan& plan,
+                                      StageFailure& failure) {
   plan.request.goal = {"pushed(" + experiment.object + ", " + experiment.side + ", " + literalNumber(experiment.offset) +
                            ", " + literalNumber(experiment.distance) + ")",
                        "observed(scene)"};
   Spending spending(wall_spent_, "plan");
   // Right after start-up the PLANNER may still be reading the components' contracts (contracts_loaded).
-  const std::string why =
-      callWhenReady(nodeHandle(), "planner/make_plan", plan, [&] { return context.stopRequested(); });
+  failure.stage = core::ExperimentStage::Plan;
+  const std::string why = callWhenReady(
+      nodeHandle(), "planner/make_plan", plan, [&] { return context.stopRequested(); }, &failure.code);
   return why.empty() ? "" : "no plan: " + why;
 }
 
-std::string LoopModel::executePlan(const MakePlan& plan, Run::Context& context, ExperimentRecord& record) {
+std::string LoopModel::executePlan(const MakePlan& plan, Run::Context& context, ExperimentRecord& record,
+                                   StageFailure& failure) {
   std::optional<Spending> spending(std::in_place, wall_spent_, "plan");  // connecting to EXECUTION counts as planning
+  failure.stage = core::ExperimentStage::Execution;
+  failure.code = ResultCode::UNAVAILABLE;
   if (!execution_) {
     execution_ = std::make_unique<actionlib::SimpleActionClient<ExecutePlanAction>>(nodeHandle(), "execution/execute_plan", false);
   }
@@ -88,14 +116,19 @@ std::string LoopModel::executePlan(const MakePlan& plan, Run::Context& context, 
     if (context.stopRequested() || lost) {
       execution.cancelGoal();
       waitForResultOnWallTime(execution, ros::WallDuration(10.0));
+      failure.code = ResultCode::FAILED;  // passing: a lost component is restarted, a stop ends the run
       return lost ? "a component was lost during execution" : "stopped during execution";
     }
     ros::WallDuration(0.01).sleep();
   }
   const auto result = execution.getResult();
+  failure.code = result ? result->code : static_cast<std::uint8_t>(ResultCode::FAILED);
+  if (result && !result->observations.empty()) failure.seen = result->observations.back();
   if (execution.getState() != actionlib::SimpleClientGoalState::SUCCEEDED || !result || !result->success) {
+    if (failure.code == ResultCode::OK) failure.code = ResultCode::FAILED;
     return "execution failed: " + execution.getState().getText();
   }
+  failure.code = ResultCode::FAILED;  // what follows found the plan's observations wanting
   if (result->observations.size() < 2) return "the plan made fewer than two observations";
   record.before = result->observations.front();
   record.after = result->observations.back();
@@ -106,7 +139,8 @@ std::string LoopModel::executePlan(const MakePlan& plan, Run::Context& context, 
   return "";
 }
 
-std::string LoopModel::compareWithPrediction(const Experiment& experiment, ExperimentRecord& record) {
+std::string LoopModel::compareWithPrediction(const Experiment& experiment, ExperimentRecord& record,
+                                             StageFailure& failure) {
   const ObjectFeatures* before = findObject(record.before, experiment.object);
   const ObjectFeatures* after = findObject(record.after, experiment.object);
   // What the model expected (it has not seen this experiment yet) ...
@@ -114,8 +148,12 @@ std::string LoopModel::compareWithPrediction(const Experiment& experiment, Exper
   Predict predict;
   predict.request.experiment = experiment;
   predict.request.object = *before;
-  const std::string why = callPatiently(nodeHandle(), "machine_learning/predict", predict);
+  failure = StageFailure();
+  failure.stage = core::ExperimentStage::Prediction;
+  const std::string why =
+      callPatiently(nodeHandle(), "machine_learning/predict", predict, 60.0, false, {}, &failure.code);
   if (!why.empty()) return "no prediction: " + why;
+  failure.code = ResultCode::FAILED;  // the outcome cannot be computed
   record.predicted_mean = predict.response.mean;
   record.predicted_std = predict.response.std;
 

@@ -7,6 +7,9 @@
 #include "xpersif/loop/loop_model.h"
 
 #include <algorithm>
+#include <cctype>
+#include <condition_variable>
+#include <memory>
 
 #include "xpersif/ChooseFeatures.h"
 #include "xpersif/GetFeatures.h"
@@ -65,6 +68,77 @@ std::string LoopModel::waitForSelection(const std::vector<std::string>& selectio
     ros::WallDuration(0.02).sleep();
   }
   return "VISION did not take up the selection within 20 s: " + why;
+}
+
+namespace {
+
+/// The latest status a component publishes on @p topic, waiting up to @p seconds of wall time for one.
+std::optional<ComponentStatus> statusOf(ros::NodeHandle& nh, const std::string& topic, double seconds) {
+  struct Heard {
+    std::mutex mutex;
+    std::condition_variable arrived;
+    std::optional<ComponentStatus> status;
+  };
+  auto heard = std::make_shared<Heard>();
+  ros::Subscriber subscriber = nh.subscribe<ComponentStatus>(topic, 1, [heard](const ComponentStatus::ConstPtr& s) {
+    std::lock_guard<std::mutex> lock(heard->mutex);
+    heard->status = *s;
+    heard->arrived.notify_all();
+  });
+  std::unique_lock<std::mutex> lock(heard->mutex);
+  heard->arrived.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return heard->status.has_value(); });
+  return heard->status;
+}
+
+/// A component's name as the sentences write it: "/xpersif/observation" is OBSERVATION.
+std::string upper(const std::string& resolved) {
+  std::string name = resolved.substr(resolved.rfind('/') + 1);
+  for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return name;
+}
+
+}  // namespace
+
+std::string LoopModel::perceptionRefusal() {
+  std::map<std::string, std::vector<PartStatus>> erroring;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    erroring = erroring_parts_;
+  }
+  std::string said;
+  const auto say = [&](const std::string& sentence) { said += (said.empty() ? "" : "; ") + sentence; };
+  for (const auto& [component, parts] : erroring) {
+    for (const auto& part : parts) {
+      // A supervised component's part is a component of its own (ROBOTMODEL's OBSERVATION): its status names
+      // which of its parts refuses and why. A part that publishes no status is described by its supervisor.
+      std::string why;
+      if (const auto status = statusOf(nodeHandle(), part.name + "/status", 2.0)) {
+        for (const auto& inner : status->parts) {
+          if (inner.health != ComponentStatus::HEALTH_ERROR) continue;
+          why += (why.empty() ? "" : "; ") + upper(part.name) + "'s " + inner.name + " refuses to work: " + inner.message;
+        }
+        if (why.empty() && status->state == ComponentStatus::ERROR && !status->last_error.empty()) {
+          why = upper(part.name) + " is in ERROR: " + status->last_error;
+        }
+      }
+      if (why.empty() && !part.message.empty()) why = upper(component) + "'s " + part.name + ": " + part.message;
+      if (!why.empty()) say(why);
+    }
+  }
+  return said;
+}
+
+void LoopModel::onComponentStatus(const std::string& name, const ComponentStatus& status) {
+  std::vector<PartStatus> erroring;
+  for (const auto& part : status.parts) {
+    if (part.health == ComponentStatus::HEALTH_ERROR) erroring.push_back(part);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (erroring.empty()) {
+    erroring_parts_.erase(name);
+  } else {
+    erroring_parts_[name] = std::move(erroring);
+  }
 }
 
 std::string LoopModel::ensureFeatures(std::uint64_t run_id, std::uint64_t seed, std::uint32_t done,

@@ -101,6 +101,7 @@ LoopModel::Ending LoopModel::startOrResume(RunState& run) {
     lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
   }
   run.done = run.start.experiments_designed;
+  run.streak = core::FailureStreak(max_same_failures_);
   setState("experimenting");
   announceStart(run);
   if (run.start.resumed) restoreResumedWorld(run);
@@ -182,7 +183,8 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   NextExperiment next;
   if (Ending end = chooseExperiment(run, scene, next)) return end;
   ExperimentRecord record;
-  runExperiment(next.experiment, next.design, run.context, record);
+  StageFailure failure;
+  runExperiment(next.experiment, next.design, run.context, record, &failure);
   if (run.context.stopRequested() && record.status != "done") return ended(run, "stopped during an experiment");
   // The world as the experiment left it is the next step's start: taken now, before anything is stored, so
   // that a simulator that died after the experiment, while nothing moved the world, is noticed too: the world
@@ -194,7 +196,21 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   }
   if (Ending end = storeExperiment(run, record, end_why, end_state)) return end;
   countExperiment(run, next.experiment, record);
-  return std::nullopt;
+  return checkFailureStreak(run, record, failure, scene);
+}
+
+LoopModel::Ending LoopModel::checkFailureStreak(RunState& run, const ExperimentRecord& record,
+                                                const StageFailure& failure, const FeatureVector& scene) {
+  const core::FailureCause cause = core::classifyFailure(evidenceOf(record, failure, scene));
+  if (!run.streak.add(cause)) return std::nullopt;
+  // The same cause would fail every experiment left: the phase ends here, with that cause as the run's outcome,
+  // rather than spending the run's budget (the experiments are stored; `--resume` goes on once it is fixed).
+  const std::uint32_t last = run.done, first = last + 1 - run.streak.length();
+  ROS_ERROR("%s: experiments %u to %u failed for the same cause; the run stops", name().c_str(), first, last);
+  return ended(run, "experiments " + std::to_string(first) + " to " + std::to_string(last) +
+                        " failed for the same cause, " + core::describeCause(cause, loop::resultCodeName(cause.code)) +
+                        " (the last one: " + record.reason + "); the experimentation phase stops",
+               RunLoopResult::REPEATING_CAUSE);
 }
 
 LoopModel::Ending LoopModel::takeStepState(RunState& run) {
@@ -211,8 +227,8 @@ LoopModel::Ending LoopModel::takeStepState(RunState& run) {
 
 LoopModel::Ending LoopModel::sceneForStep(RunState& run, std::uint64_t step, FeatureVector& scene) {
   std::string why = ensureFeatures(run.result.run_id, run.goal.seed, run.done, run.goal.experiments, run.features);
-  if (!why.empty()) return ended(run, "cannot set the features learned from: " + why);
-  if (!getScene(&scene, &why)) return ended(run, "cannot observe the scene: " + why);
+  if (!why.empty()) return blind(run, "cannot set the features learned from", why);
+  if (!getScene(&scene, &why)) return blind(run, "cannot observe the scene", why);
   if (tidy_ && tidyArena(scene, core::streamSeed(run.goal.seed, run.result.run_id, step, core::StreamPurpose::Tidy)) > 0 &&
       !getScene(&scene, &why)) {
     return ended(run, "cannot observe the scene: " + why);
@@ -339,11 +355,20 @@ void LoopModel::finish(RunState& run, const std::string& status) {
   publishProgress(&run.context);
 }
 
-CommandOutcome LoopModel::ended(RunState& run, const std::string& reason) {
+CommandOutcome LoopModel::ended(RunState& run, const std::string& reason, std::uint8_t code) {
   finish(run, "stopped");
+  run.result.code = code;
   run.result.message = reason + " after " + std::to_string(run.result.experiments_done) + " experiments";
   if (run.context.cancelRequested()) return CommandOutcome::preempted(run.result.message);
   return CommandOutcome::aborted(run.result.message);
+}
+
+CommandOutcome LoopModel::blind(RunState& run, const std::string& what, const std::string& why) {
+  // VISION works from OBSERVATION's vectors: a perceiving component that refuses to work is the cause to name,
+  // not the wait downstream of it, and it fails every experiment until the set-up changes.
+  const std::string refusal = perceptionRefusal();
+  if (refusal.empty()) return ended(run, what + ": " + why);
+  return ended(run, what + ": " + refusal + " (" + why + ")", RunLoopResult::REPEATING_CAUSE);
 }
 
 CommandOutcome LoopModel::unstored(RunState& run, const std::string& what, const std::string& why) {

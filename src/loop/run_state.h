@@ -27,6 +27,7 @@ struct LoopModel::RunState {
   std::uint32_t done = 0;      ///< experiments designed (done or failed), counted towards goal.experiments
   std::uint32_t learned = 0;   ///< successful experiments the model has seen in this run
   FeatureStage features;       ///< which features the run learns from (FEATURESELECTION's choice once it is due)
+  core::FailureStreak streak;  ///< consecutive experiments failing for one cause (~max_same_failures)
   std::string step_state;      ///< the world state at the start of the current step
   std::string next_state;      ///< the world at the end of the last step, stored already as the next one's start
 };

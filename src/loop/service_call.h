@@ -36,11 +36,14 @@ std::string call(ros::NodeHandle& nh, const std::string& name, Service& service,
 /// retries while the answer is UNAVAILABLE or NOT_ACTIVE (and, with @p unmet_too, PRECONDITION_FAILED: the PLANNER
 /// still reading contracts, DESIGNOFEXPERIMENTS before its first feature vector), for up to @p patience seconds
 /// or until @p stop says so.
+/// The last answer's code goes to @p code_out when given.
 template <class Service>
 std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service& service, double patience = 60.0,
-                          bool unmet_too = false, const std::function<bool()>& stop = {}) {
+                          bool unmet_too = false, const std::function<bool()>& stop = {},
+                          std::uint8_t* code_out = nullptr) {
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(patience);
-  std::uint8_t code = ResultCode::OK;
+  std::uint8_t ignored = ResultCode::OK;
+  std::uint8_t& code = code_out ? *code_out : ignored;
   std::string why = call(nh, name, service, &code);
   while (!why.empty() && ros::ok() && ros::WallTime::now() < until && !(stop && stop()) &&
          (code == ResultCode::UNAVAILABLE || code == ResultCode::NOT_ACTIVE ||
@@ -54,8 +57,21 @@ std::string callPatiently(ros::NodeHandle& nh, const std::string& name, Service&
 /// Patient also with an unmet precondition, which a component just (re)started may not meet yet.
 template <class Service>
 std::string callWhenReady(ros::NodeHandle& nh, const std::string& name, Service& service,
-                          const std::function<bool()>& stop) {
-  return callPatiently(nh, name, service, 60.0, true, stop);
+                          const std::function<bool()>& stop, std::uint8_t* code = nullptr) {
+  return callPatiently(nh, name, service, 60.0, true, stop, code);
+}
+
+/// The name of an xpersif/ResultCode value, as ResultCode.msg spells it.
+inline std::string resultCodeName(std::uint8_t code) {
+  switch (code) {
+    case ResultCode::OK: return "OK";
+    case ResultCode::NOT_ACTIVE: return "NOT_ACTIVE";
+    case ResultCode::INVALID: return "INVALID";
+    case ResultCode::PRECONDITION_FAILED: return "PRECONDITION_FAILED";
+    case ResultCode::UNAVAILABLE: return "UNAVAILABLE";
+    case ResultCode::FAILED: return "FAILED";
+    default: return "code " + std::to_string(code);
+  }
 }
 
 }  // namespace loop

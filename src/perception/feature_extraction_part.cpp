@@ -125,6 +125,7 @@ void FeatureExtractionPart::configure(const ros::NodeHandle& parameters) {
   options_ = options;
   extractor_.reset();
   problem_ = "waiting for the scene";
+  refused_ = false;
 }
 
 void FeatureExtractionPart::shutdown() {
@@ -137,6 +138,14 @@ std::string FeatureExtractionPart::problem() const {
   return problem_;
 }
 
+std::pair<std::uint8_t, std::string> FeatureExtractionPart::diagnose() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::uint8_t health = refused_            ? ComponentStatus::HEALTH_ERROR
+                              : problem_.empty() ? ComponentStatus::HEALTH_OK
+                                                 : ComponentStatus::HEALTH_WARN;
+  return {health, problem_};
+}
+
 void FeatureExtractionPart::setCamera(const core::SceneDescription& scene, const core::CameraModel& camera) {
   std::lock_guard<std::mutex> lock(mutex_);
   try {
@@ -146,9 +155,11 @@ void FeatureExtractionPart::setCamera(const core::SceneDescription& scene, const
                                                                 std::make_shared<core::RenderedBackground>(scene));
     world_frame_ = scene.world_frame;
     problem_.clear();
+    refused_ = false;
   } catch (const std::exception& e) {
     extractor_.reset();
     problem_ = std::string("cannot extract features from camera '") + camera.name + "': " + e.what();
+    refused_ = true;
   }
 }
 

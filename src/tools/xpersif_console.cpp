@@ -305,7 +305,9 @@ int runLoop(xpersif::RunLoopGoal goal) {
   const auto& state = outcome.state;
   const auto& result = outcome.result;
   std::cout << "run " << (result ? result->run_id : 0) << ": " << state.toString() << ": " << state.getText() << "\n";
-  return state == actionlib::SimpleClientGoalState::SUCCEEDED ? 0 : 1;
+  if (state == actionlib::SimpleClientGoalState::SUCCEEDED) return xpersif::core::kExitOk;
+  if (result && result->code == xpersif::RunLoopResult::REPEATING_CAUSE) return xpersif::core::kExitRepeatingCause;
+  return xpersif::core::kExitFailed;
 }
 
 }  // namespace
@@ -544,7 +546,8 @@ int main(int argc, char** argv) {
                "without one.",
                "xpersif");
   xpersif::tools::describe(app, xpersif::tools::exitCodes("done", "the command failed or the system did not answer") +
-                                    " `run` and `rerun` exit with the run's outcome (0 done).");
+                                    " `run` and `rerun` exit with the run's outcome (0 done; 5 it stopped on a cause that "
+                                    "fails every experiment, e.g. the loop cannot perceive).");
   Request request;
   addCommands(app, request);
   if (const auto done = xpersif::tools::parse(app, wordsOf(argc, argv))) return *done;

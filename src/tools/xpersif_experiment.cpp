@@ -417,7 +417,10 @@ class Runner {
       const auto& result = outcome.result;
       units_done_ = units_before + phase.experiments + phase.goals;
       if (state != actionlib::SimpleClientGoalState::SUCCEEDED) {
-        return finish(1, "phase " + phase.name + " ended " + state.toString() + ": " + state.getText());
+        // A cause that fails every experiment (the loop cannot perceive) has its own code: running again won't help.
+        const bool repeating = result && result->code == xpersif::RunLoopResult::REPEATING_CAUSE;
+        return finish(repeating ? xpersif::core::kExitRepeatingCause : xpersif::core::kExitFailed,
+                      "phase " + phase.name + " ended " + state.toString() + ": " + state.getText());
       }
       std::ostringstream summary;
       summary << "phase " << phase.name << " done: run " << (result ? result->run_id : 0) << ", "
@@ -549,7 +552,8 @@ int main(int argc, char** argv) {
                "xpersif_experiment");
   xpersif::tools::describe(app, xpersif::tools::exitCodes("every phase succeeded and the report was written",
                                                           "a phase or the report failed, or no ROS master") +
-                                    " A bad experiment file exits 2: nothing started.");
+                                    " A bad experiment file exits 2: nothing started. A phase that stopped on a cause "
+                                    "that fails every experiment (the loop cannot perceive) exits 5.");
   std::string file;
   std::vector<std::string> overrides, configs;
   auto* check_command = app.add_subcommand("check", "check the file (and its world) and print it as it will run");

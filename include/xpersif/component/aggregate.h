@@ -14,6 +14,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "xpersif/component/component.h"
@@ -34,6 +35,13 @@ class ComponentPart {
   virtual void shutdown() {}
   /// "" while the part is healthy, else what is wrong (shown in the aggregate's status).
   virtual std::string problem() const { return ""; }
+  /// problem() with its health, read together: HEALTH_WARN by default (waiting for something that will come);
+  /// a part that refuses to work with what it was given (FEATUREEXTRACTION refusing a scene it cannot perceive)
+  /// says HEALTH_ERROR, which its aggregate's status carries, so that a supervisor can tell the two apart by code.
+  virtual std::pair<std::uint8_t, std::string> diagnose() const {
+    std::string message = problem();
+    return {message.empty() ? ComponentStatus::HEALTH_OK : ComponentStatus::HEALTH_WARN, std::move(message)};
+  }
 
  private:
   std::string name_;

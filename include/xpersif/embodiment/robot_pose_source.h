@@ -62,6 +62,9 @@ class RobotPoseSource {
   bool waitFor(const ros::Time& stamp, bool observation, double timeout) const;
 
  private:
+  /// Why the overhead camera gives no pose of the robot: no vector yet, or its latest lists the robot as not
+  /// found (called with mutex_ held).
+  std::string whyNotSeen() const;
   void onOdometry(const nav_msgs::Odometry::ConstPtr& odom);
   void onObservation(const FeatureVector::ConstPtr& features);
   void applyFix(const FeatureVector& features);  // mutex_ held

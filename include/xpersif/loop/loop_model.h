@@ -58,6 +58,7 @@
 #include "xpersif/SetExperiment.h"
 #include "xpersif/component/lockstep_client.h"
 #include "xpersif/component/supervisor.h"
+#include "xpersif/core/common/experiment_failure.h"
 #include "xpersif/core/planning/experiment_design.h"
 #include "xpersif/core/common/setup.h"
 #include "xpersif/embodiment/embodiment_setup.h"
@@ -93,6 +94,12 @@ class LoopModel : public Supervisor {
   struct RunState;
   struct NextExperiment;
   struct GoalAttempt;
+  /// Where an experiment failed, with the code that stage gave and the overhead camera's latest vector then.
+  struct StageFailure {
+    core::ExperimentStage stage = core::ExperimentStage::None;
+    std::uint8_t code = 0;              ///< xpersif/ResultCode
+    std::optional<FeatureVector> seen;  ///< the last observation the plan made, when it made one
+  };
   /// The run's outcome when it ends at a step; empty: the run goes on.
   using Ending = std::optional<CommandOutcome>;
   CommandOutcome run(Run::Context& context, RunLoopResult& result);
@@ -126,6 +133,10 @@ class LoopModel : public Supervisor {
   std::string storeRecord(std::uint64_t run_id, const ExperimentRecord& record);
   /// Counts a stored experiment, waits for MACHINELEARNING to learn a successful one, and publishes progress.
   void countExperiment(RunState& run, const Experiment& experiment, const ExperimentRecord& record);
+  /// Ends the run when the experiment just counted is the ~max_same_failures-th in a row failing for one cause
+  /// (core::FailureStreak), naming that cause and the last experiment's reason.
+  Ending checkFailureStreak(RunState& run, const ExperimentRecord& record, const StageFailure& failure,
+                            const FeatureVector& scene);
   /// The goals GOALDESIGN sets, until the run has goal.goals of them.
   Ending goalPhase(RunState& run);
   /// One goal: its world state, the gate, the scene, the goal, its pushes, and the goal stored.
@@ -146,8 +157,12 @@ class LoopModel : public Supervisor {
   Ending recordGoal(RunState& run, GoalAttempt& attempt);
   /// Logs where the run's wall time went, and tells the knowledge base and the progress that it ended as @p status.
   void finish(RunState& run, const std::string& status);
-  /// Ends the run (stopped) for @p reason: PREEMPTED when cancelled, else ABORTED.
-  CommandOutcome ended(RunState& run, const std::string& reason);
+  /// Ends the run (stopped) for @p reason: PREEMPTED when cancelled, else ABORTED; @p code goes to the result
+  /// (RunLoopResult::REPEATING_CAUSE when every experiment left would fail the same way).
+  CommandOutcome ended(RunState& run, const std::string& reason, std::uint8_t code = 0);
+  /// Ends the run because VISION gave no vectors (@p what, @p why): naming the perceiving component that refuses
+  /// to work (perceptionRefusal, REPEATING_CAUSE) when there is one.
+  CommandOutcome blind(RunState& run, const std::string& what, const std::string& why);
   /// Ends the run because the knowledge base did not store @p what (@p why).
   CommandOutcome unstored(RunState& run, const std::string& what, const std::string& why);
   /// Ends the run finished, SUCCEEDED with its counts.
@@ -156,15 +171,22 @@ class LoopModel : public Supervisor {
   std::uint32_t learnedOneMore(RunState& run);
 
   // ---- one experiment (loop_model_experiment.cpp) ----
-  /// One experiment, start to end; fills @p record (status done or failed, with the reason).
+  /// One experiment, start to end; fills @p record (status done or failed, with the reason) and, when given,
+  /// @p failure with the stage that failed, its code and the camera's latest vector.
   void runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
-                     ExperimentRecord& record);
-  /// The PLANNER's plan for @p experiment: observe, push, observe again; "" or why not.
-  std::string planExperiment(const Experiment& experiment, Run::Context& context, MakePlan& plan);
-  /// EXECUTION runs @p plan; the observations before and after go to @p record; "" or why it failed.
-  std::string executePlan(const MakePlan& plan, Run::Context& context, ExperimentRecord& record);
+                     ExperimentRecord& record, StageFailure* failure = nullptr);
+  /// The PLANNER's plan for @p experiment: observe, push, observe again; "" or why not (its code in @p failure).
+  std::string planExperiment(const Experiment& experiment, Run::Context& context, MakePlan& plan,
+                             StageFailure& failure);
+  /// EXECUTION runs @p plan; the observations before and after go to @p record; "" or why it failed (its code
+  /// and the last observation the plan made in @p failure).
+  std::string executePlan(const MakePlan& plan, Run::Context& context, ExperimentRecord& record,
+                          StageFailure& failure);
   /// MACHINELEARNING's prediction and the outcome observed, with the surprise, in @p record; "" or why not.
-  std::string compareWithPrediction(const Experiment& experiment, ExperimentRecord& record);
+  std::string compareWithPrediction(const Experiment& experiment, ExperimentRecord& record, StageFailure& failure);
+  /// What @p failure, the step's @p scene and ~pose_source say of why @p record failed, for core::classifyFailure.
+  core::FailureEvidence evidenceOf(const ExperimentRecord& record, const StageFailure& failure,
+                                   const FeatureVector& scene) const;
 
   // ---- the progress and sliding autonomy (loop_model.cpp) ----
   /// "" or why the loop must end now (cancel, stop, shutdown); waits while paused or unconfirmed.
@@ -220,6 +242,12 @@ class LoopModel : public Supervisor {
                              FeatureStage& stage);
   /// Until VISION's latest vector carries exactly @p selection for every object (20 s of wall time); "" or why not.
   std::string waitForSelection(const std::vector<std::string>& selection);
+  /// "" or what a component behind VISION refuses, from the statuses: a supervised component reporting a part in
+  /// HEALTH_ERROR (ROBOTMODEL: OBSERVATION), and that part's own status naming its part in HEALTH_ERROR and why
+  /// (OBSERVATION's feature_extraction: "cannot extract features from camera 'overhead': ..."). Decided on the
+  /// health codes, never on the words.
+  std::string perceptionRefusal();
+  void onComponentStatus(const std::string& name, const ComponentStatus& status) override;
 
   std::mutex mutex_;
   EmbodimentSetup setup_;
@@ -237,6 +265,9 @@ class LoopModel : public Supervisor {
   double tidy_margin_ = 0.13, tidy_spacing_ = 0.14, goal_tolerance_ = 0.02, learning_timeout_ = 20.0;
   int max_goal_pushes_ = 5;
   std::uint32_t select_features_after_ = 16;
+  std::uint32_t max_same_failures_ = 3;
+  // The parts in HEALTH_ERROR of each supervised component's latest status (guarded by mutex_).
+  std::map<std::string, std::vector<PartStatus>> erroring_parts_;
   std::vector<std::string> learning_features_;  // what MACHINELEARNING learns from (use_features' answer)
 
   std::atomic<bool> running_{false}, paused_{false}, stop_requested_{false}, waiting_confirmation_{false};

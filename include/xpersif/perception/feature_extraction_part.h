@@ -43,6 +43,9 @@ class FeatureExtractionPart : public ComponentPart {
   static const core::ParameterTable& parameters();
   void shutdown() override;
   std::string problem() const override;
+  /// HEALTH_ERROR when it refused the scene it was given (setCamera: an object or the robot it cannot tell
+  /// apart), HEALTH_WARN while it waits for a scene.
+  std::pair<std::uint8_t, std::string> diagnose() const override;
 
   /// Prepare for @p camera of @p scene (call whenever the scene arrives). Errors are kept in problem().
   void setCamera(const core::SceneDescription& scene, const core::CameraModel& camera);
@@ -60,6 +63,7 @@ class FeatureExtractionPart : public ComponentPart {
   std::string world_frame_ = "world";
   std::shared_ptr<const core::FeatureExtractor> extractor_;
   std::string problem_;
+  bool refused_ = false;  // problem_ is setCamera's refusal, not a wait
   mutable std::atomic<std::uint64_t> processed_{0};
 };
 

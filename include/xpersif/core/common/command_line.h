@@ -7,7 +7,9 @@
  * `xpersif_train_offline`, `xpersif_recover_bag`, `xpersif_experiment` and `scripts/run.sh`:
  *   0 done; 1 it ran and failed (a phase, the report, the system did not answer); 2 usage: an unknown option, a
  *   missing or malformed argument (also a bad experiment file: nothing started); 3 a bad input file: missing,
- *   unreadable or corrupt (knowledge base, bag, world, model); 4 the output cannot be written.
+ *   unreadable or corrupt (knowledge base, bag, world, model); 4 the output cannot be written; 5 a run (`xpersif run`,
+ *   `rerun`, `xpersif_experiment`, `scripts/run.sh`) stopped on a cause that fails every experiment: a perceiving
+ *   component refuses to work, or experiments kept failing for one cause (running it again changes nothing).
  */
 #pragma once
 
@@ -22,6 +24,7 @@ constexpr int kExitFailed = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitBadInput = 3;
 constexpr int kExitOutput = 4;
+constexpr int kExitRepeatingCause = 5;  ///< a run stopped on a cause that fails every experiment (RunLoop's code)
 
 /// A malformed command line; what() is the sentence (exit kExitUsage).
 class UsageError : public std::invalid_argument {
