@@ -324,6 +324,12 @@ int checkWorld(const std::string& file) {
     if (!alike.empty()) throw xpersif::core::ValidationError(file + ": " + alike);
     std::cout << file << ": " << spec.name << ", arena " << catalogue.arena_size_x << " x " << catalogue.arena_size_y
               << " m, robot '" << spec.robot.name << "' of radius " << catalogue.robot_radius << " m\n";
+    const auto& fiducial = spec.robot.fiducial;
+    if (!fiducial.automatic_reason.empty()) {
+      std::cout << "  the robot carries an ArUco fiducial (" << fiducial.dictionary << ", id " << fiducial.id << ", "
+                << fiducial.size << " m) that XPERSim puts on its top, as the overhead camera could not find it by "
+                << "its own colours: " << fiducial.automatic_reason << " (robot.fiducial in the world file chooses one)\n";
+    }
     for (const auto& o : catalogue.objects) {
       std::cout << "  " << o.name << ": " << o.footprint.describe() << ", " << o.height << " m high, offsets up to "
                 << xpersif::core::maxPushOffset(o.footprint, "-x") << " (-x/+x) and "

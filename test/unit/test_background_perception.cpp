@@ -199,3 +199,23 @@ TEST(PerceptionCheck, BadFiducialsAreRefused) {
     EXPECT_NE(std::string(e.what()).find("robot.fiducial.dictionary"), std::string::npos) << e.what();
   }
 }
+
+// A robot of ordinary colours whose world gives no fiducial gets one from XPERSim (as a lab would tape one on), with
+// the reason; the robot is then found by it. A robot of colours of its own (the default world's) keeps colour
+// tracking, so its runs are unchanged.
+TEST(PerceptionCheck, ARobotOfOrdinaryColoursGetsAFiducial) {
+  const std::string text = variant("  fiducial: {dictionary: 4x4_50, id: 7, size: 0.056}\n", "");
+  const WorldSpec spec = parseWorld(text, kWorlds, "no_fiducial.yaml");
+  EXPECT_EQ(spec.robot.fiducial.dictionary, "4x4_50");
+  EXPECT_NE(spec.robot.fiducial.automatic_reason.find("grey, black or white"), std::string::npos)
+      << spec.robot.fiducial.automatic_reason;
+  EXPECT_GT(spec.robot.fiducial.size, 0.04);
+  const PhysicsWorld world(spec);
+  const PerceptionCheck check = checkPerception(world.scene(), world.dynamicTransforms());
+  EXPECT_EQ(check.problem(), "") << check.describe();
+  for (const std::string name : {"default.yaml", "mixed.yaml", "structured.yaml", "large.yaml"}) {
+    SCOPED_TRACE(name);
+    const WorldSpec shipped = loadWorldFile(kWorlds + "/" + name);
+    EXPECT_EQ(shipped.robot.fiducial.dictionary, "") << shipped.robot.fiducial.automatic_reason;
+  }
+}

@@ -671,6 +671,91 @@ YAML::Node list(const YAML::Node& root, const std::string& key, const std::strin
   return l;
 }
 
+// Colour tracking finds a robot by a body and a heading marker of colours of their own. Chromaticity, (r, g, b) /
+// (r + g + b), is what survives the renderer's shading; two colours closer than this on every channel, or a colour
+// this close to grey, cannot be told apart whatever the light.
+constexpr double kOwnColour = 0.03;
+
+double chromaDistance(const Rgba& a, const Rgba& b) {
+  const double sa = std::max(1e-9, static_cast<double>(a.r) + a.g + a.b);
+  const double sb = std::max(1e-9, static_cast<double>(b.r) + b.g + b.b);
+  return std::max({std::fabs(a.r / sa - b.r / sb), std::fabs(a.g / sa - b.g / sb), std::fabs(a.b / sa - b.b / sb)});
+}
+
+std::string describe(const Rgba& c) {
+  std::ostringstream out;
+  out << "(" << c.r << ", " << c.g << ", " << c.b << ")";
+  return out.str();
+}
+
+// Why the robot's own colours cannot give its pose from above ("" = they can): no body or heading marker visual,
+// a grey one, or one whose colour something else in the world shares.
+std::string colourTrackingProblem(const WorldSpec& world) {
+  const RobotSpec& robot = world.robot;
+  auto area = [](const Shape& s) {
+    return s.type == Shape::Type::Box ? s.box_size.x() * s.box_size.y() : M_PI * s.radius * s.radius;
+  };
+  const Visual* body = nullptr;  // as perception takes it: the root's largest box or cylinder seen from above
+  for (const Visual& v : robot.links.front().visuals) {
+    if (v.shape.type != Shape::Type::Sphere && (!body || area(v.shape) > area(body->shape))) body = &v;
+  }
+  std::string marker_link = robot.heading_marker;
+  for (std::size_t i = 1; marker_link.empty() && i < robot.links.size(); ++i) {
+    const auto& visuals = robot.links[i].visuals;
+    if (visuals.size() == 1 && visuals.front().shape.type == Shape::Type::Box) marker_link = robot.links[i].name;
+  }
+  const Visual* marker = nullptr;
+  for (const LinkSpec& l : robot.links) {
+    if (l.name == marker_link && !l.visuals.empty()) marker = &l.visuals.front();
+  }
+  if (!body) return "its root link has no box or cylinder visual to be found by";
+  if (!marker) return "it has no heading marker (a link with one box visual) to give its heading";
+  const Rgba grey{1, 1, 1, 1};
+  std::vector<std::pair<std::string, Rgba>> others = {{"the floor", world.arena.floor_color},
+                                                       {"the walls", world.arena.wall_color}};
+  for (const ObjectSpec& o : world.objects) others.push_back({"object '" + o.name + "'", o.color});
+  for (const LinkSpec& l : robot.links) {
+    for (const Visual& v : l.visuals) {
+      if (&v != body && &v != marker) others.push_back({"its link '" + l.name + "'", v.color});
+    }
+  }
+  for (const auto& [what, visual] : {std::make_pair(std::string("body"), body), std::make_pair(std::string("heading marker"), marker)}) {
+    if (chromaDistance(visual->color, grey) < kOwnColour) {
+      return "its " + what + " " + describe(visual->color) + " is grey, black or white";
+    }
+    for (const auto& [name, colour] : others) {
+      if (chromaDistance(visual->color, colour) < kOwnColour) {
+        return "its " + what + " " + describe(visual->color) + " has the colour of " + name + " " + describe(colour);
+      }
+    }
+  }
+  if (chromaDistance(body->color, marker->color) < kOwnColour) {
+    return "its body and heading marker share one colour " + describe(body->color);
+  }
+  return "";
+}
+
+// A robot the overhead camera could not find by its colours gets what a lab would tape on: an ArUco marker (4x4_50,
+// id 0) as large as its top allows (a plate the width of its body, the marker three quarters of the plate).
+RobotSpec::Fiducial fiducialIfColoursFail(const WorldSpec& world) {
+  RobotSpec::Fiducial fiducial;
+  if (world.robot.links.empty()) return fiducial;
+  const std::string problem = colourTrackingProblem(world);
+  if (problem.empty()) return fiducial;
+  double width = 0;
+  for (const Visual& v : world.robot.links.front().visuals) {
+    const double w = v.shape.type == Shape::Type::Box ? std::min(v.shape.box_size.x(), v.shape.box_size.y())
+                                                      : 2 * v.shape.radius;
+    width = std::max(width, w);
+  }
+  if (!(width > 0)) return fiducial;
+  fiducial.dictionary = "4x4_50";
+  fiducial.id = 0;
+  fiducial.size = 0.75 * width;
+  fiducial.automatic_reason = problem;
+  return fiducial;
+}
+
 WorldSpec parseWorldNode(const YAML::Node& root, const std::string& base_dir, const std::string& source) {
   if (!root.IsMap()) throw WorldError(source + ": a world file is a YAML mapping (name, physics, arena, robot, objects, cameras)");
   rejectUnknownKeys(root, {"name", "physics", "arena", "robot", "objects", "cameras"}, source + ": the world");
@@ -690,6 +775,7 @@ WorldSpec parseWorldNode(const YAML::Node& root, const std::string& base_dir, co
     world.objects.push_back(parseObject(objects[i], source + ": objects[" + std::to_string(i) + "]", names));
   }
   checkPlacement(world, objects);
+  if (world.robot.fiducial.dictionary.empty()) world.robot.fiducial = fiducialIfColoursFail(world);
   const YAML::Node cameras = list(root, "cameras", source, 64);
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     world.cameras.push_back(parseCamera(cameras[i], source + ": cameras[" + std::to_string(i) + "]", world.robot, names));

@@ -91,6 +91,9 @@ struct RobotSpec {
     double size = 0;         ///< the black square's side, m
     /// root_from_marker in the horizontal plane (x, y, yaw); its height is filled in above the robot's top
     Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+    /// Why XPERSim put this fiducial on the robot itself ("" = the world file asked for it): a robot the overhead
+    /// camera could not find by its own colours (see parseWorld()).
+    std::string automatic_reason;
   } fiducial;
 };
 
