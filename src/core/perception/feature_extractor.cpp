@@ -1325,9 +1325,13 @@ FeatureExtractor::FeatureExtractor(PerceptionCatalogue catalogue, CameraModel ca
   }
 }
 
-bool FeatureExtractor::isDownward(const Eigen::Isometry3d& world_from_camera) const {
+bool isDownwardCamera(const Eigen::Isometry3d& world_from_camera, double max_tilt) {
   const Eigen::Vector3d axis = world_from_camera.linear().col(2).normalized();
-  return std::acos(std::clamp(-axis.z(), -1.0, 1.0)) <= options_.max_downward_tilt;
+  return std::acos(std::clamp(-axis.z(), -1.0, 1.0)) <= max_tilt;
+}
+
+bool FeatureExtractor::isDownward(const Eigen::Isometry3d& world_from_camera) const {
+  return isDownwardCamera(world_from_camera, options_.max_downward_tilt);
 }
 
 Detections FeatureExtractor::extract(const cv::Mat& bgr, const Eigen::Isometry3d& world_from_camera) const {

@@ -80,11 +80,10 @@ std::string checkCoverage(const PerceptionCatalogue& catalogue, const CameraMode
   if (r.fiducial.dictionary >= 0) {
     const double top = r.root_height + r.fiducial.root_from_marker.translation().z();
     const double depth = arenaCorners(camera, world_from_camera, arena_size_x, arena_size_y, top).depth;
-    const RobotTracker tracker(r, camera);
-    const double cell = tracker.cellPixels(depth);
-    const double cells = focal * r.fiducial.size / depth / cell;
+    const double cell_size = fiducialCellSize(r);
+    const double cell = focal * cell_size / depth;
     if (cell < kMinFiducialCellPixels) {
-      return tooCoarse(camera, "a cell of the robot's fiducial", r.fiducial.size / cells, cell,
+      return tooCoarse(camera, "a cell of the robot's fiducial", cell_size, cell,
                        kMinFiducialCellPixels, depth, "");
     }
   } else if (r.marker_size.minCoeff() > 0) {
@@ -227,8 +226,7 @@ PerceptionCheck checkPerception(const SceneDescription& scene, const FrameTransf
     CameraPerception out;
     out.camera = camera.name;
     const SceneImages images{scene, world, camera, cameraWorldPose(scene, world, camera)};
-    const Eigen::Vector3d axis = images.pose.linear().col(2).normalized();
-    out.downward = std::acos(std::clamp(-axis.z(), -1.0, 1.0)) <= options.max_downward_tilt;  // as isDownward()
+    out.downward = isDownwardCamera(images.pose, options.max_downward_tilt);
     try {
       const FeatureExtractor extractor(catalogue, camera, options, background);
       if (out.downward) {

@@ -67,6 +67,10 @@ RobotTracker::RobotTracker(const RobotAppearance& robot, const CameraModel& came
   parameters_->minMarkerPerimeterRate = 0.01;
 }
 
+double fiducialCellSize(const RobotAppearance& robot) {
+  return robot.fiducial.size / (dictionaryOf(robot)->markerSize + 2);
+}
+
 double RobotTracker::cellPixels(double depth) const {
   return std::min(camera_.fx, camera_.fy) * robot_.fiducial.size / (dictionary_->markerSize + 2) / depth;
 }

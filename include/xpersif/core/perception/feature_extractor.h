@@ -273,6 +273,9 @@ class FeatureExtractor {
   std::shared_ptr<const class RobotTracker> tracker_;  // with a fiducial: finds the robot and its silhouette
 };
 
+/// True when a camera at @p world_from_camera looks within @p max_tilt of straight down (the top-face method).
+bool isDownwardCamera(const Eigen::Isometry3d& world_from_camera, double max_tilt);
+
 /// @p yaw folded into (-period/2, period/2].
 double foldAngle(double yaw, double period);
 

@@ -20,6 +20,10 @@
 
 namespace xpersif::core {
 
+/// The side of one cell of the robot's fiducial, m: the black square's side / (bits + 2).
+/// @throws ValidationError if @p robot has no fiducial or an unknown dictionary
+double fiducialCellSize(const RobotAppearance& robot);
+
 class RobotTracker {
  public:
   /// @throws ValidationError if @p robot has no fiducial or an unknown dictionary
