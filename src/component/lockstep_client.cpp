@@ -91,7 +91,7 @@ LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock
   joined_ = true;
   clock_ = call.response.clock;
   joined_at_ = call.response.tick;
-  Tick now{call.response.tick, call.response.phase, call.response.stamp, {}, false, 0.0};
+  Tick now{call.response.tick, call.response.phase, call.response.stamp, {}, {}, false, 0.0};
   if (!sensor_) {
     // An actor first acts in the ACT phase after a SENSE phase (core/lockstep.h): the current tick's when it
     // joined in SENSE, the next tick's when it joined in ACT. That tick, in SENSE: reportAndWait() waits for it.
@@ -118,7 +118,8 @@ void LockstepClient::leave() {
 
 void LockstepClient::report(const Tick& tick, bool wants_time, bool published, const Command& command,
                             double next_due) {
-  LockstepDone done;
+  auto message = boost::make_shared<LockstepDone>();  // shared: a simulator in this process gets it uncopied
+  LockstepDone& done = *message;
   done.participant = name_;
   done.tick = tick.tick;
   done.phase = tick.phase;
@@ -126,9 +127,10 @@ void LockstepClient::report(const Tick& tick, bool wants_time, bool published, c
   done.published = published;
   done.next_due = next_due;
   done.drives = command.drives;
+  done.wants_frames = command.wants_frames;
   done.cmd_vel.linear.x = command.linear;
   done.cmd_vel.angular.z = command.angular;
-  done_pub_.publish(done);
+  done_pub_.publish(message);
 }
 
 std::optional<LockstepClient::Tick> LockstepClient::reportAndWait(const Tick& tick, const Command& command,
@@ -188,8 +190,8 @@ void LockstepClient::onTick(std::function<void(LockstepClient&, const Tick&)> ca
 }
 
 void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
-  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->idle != 0, message->physics_time,
-            message->epoch};
+  Tick tick{message->tick, message->phase, message->stamp, message->fresh, message->requested, message->idle != 0,
+            message->physics_time, message->epoch};
   std::function<void(LockstepClient&, const Tick&)> callback;
   bool rejoin = false;
   {

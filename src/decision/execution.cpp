@@ -330,8 +330,9 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
       code = ResultCode::FAILED;
       return why;
     }
-    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.
+    // A call costs a fraction of a millisecond; a longer pause would be most of an experiment's idle time.)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
 

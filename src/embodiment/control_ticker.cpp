@@ -7,14 +7,15 @@ namespace xpersif {
 
 ControlTicker::ControlTicker(LockstepClient* lockstep, const RobotPoseSource& source, double period,
                              bool uses_observation, std::string observation_participant,
-                             std::function<void(const core::Velocity2D&)> publish)
+                             std::function<void(const core::Velocity2D&)> publish, double fix_period)
     : lockstep_(lockstep && lockstep->enabled() ? lockstep : nullptr),
       source_(source),
       period_(period),
       dt_(period),
       uses_observation_(uses_observation),
       observation_participant_(std::move(observation_participant)),
-      publish_(std::move(publish)) {}
+      publish_(std::move(publish)),
+      fix_period_(fix_period) {}
 
 ControlTicker::~ControlTicker() { finish(); }
 
@@ -29,6 +30,8 @@ std::string ControlTicker::start() {
     if (!act) return "left the lockstep clock before its first tick";
     tick_ = act;
     last_ = tick_->stamp;
+    // The first tick's sensing is fresh when its tick was idle (core/lockstep.h); else ask at once.
+    next_fix_ = tick_->stamp.toSec() + (freshObservation() ? fix_period_ : 0.0);
   } catch (const std::exception& e) {
     return e.what();
   }
@@ -65,7 +68,17 @@ bool ControlTicker::next(const core::Velocity2D& velocity, const std::function<b
     last_ = now;
     return !stop();
   }
-  auto next = lockstep_->reportAndWait(*tick_, {true, velocity.linear, velocity.angular}, stop);
+  LockstepClient::Command command{true, velocity.linear, velocity.angular, {}};
+  // A frame when a fix is due at the next tick (the camera renders only on request), or the command asked for one.
+  const double next_stamp = tick_->stamp.toSec() + period_;
+  const bool fix_due = fix_period_ > 0 && next_stamp + 1e-9 >= next_fix_;
+  const bool asked = observation_at_ >= 0 && next_stamp + 1e-9 >= observation_at_;
+  if (uses_observation_ && (fix_due || asked)) {
+    command.wants_frames.push_back(observation_participant_);
+    if (fix_period_ > 0) next_fix_ = next_stamp + fix_period_;
+    observation_at_ = -1;
+  }
+  auto next = lockstep_->reportAndWait(*tick_, command, stop);
   if (!next) return false;
   dt_ = std::max(1e-4, (next->stamp - tick_->stamp).toSec());
   tick_ = next;
@@ -77,7 +90,7 @@ void ControlTicker::finish() {
   finished_ = true;
   publish_({});
   if (lockstep_ && tick_) {
-    lockstep_->report(*tick_, false, false, {true, 0.0, 0.0});  // stopped from the next tick on
+    lockstep_->report(*tick_, false, false, {true, 0.0, 0.0, {}});  // stopped from the next tick on
     lockstep_->leave();
   }
 }

@@ -122,6 +122,9 @@ const core::ParameterTable& Manipulation::parameters() {
          core::numberParameter("max_linear", 0.1, 1e-3, 1e3, "m/s: the fastest drive (at most twice the wheels' top speed)"),
          core::numberParameter("max_angular", 2.5, 1e-2, 50.0, "rad/s: the fastest turn"),
          core::numberParameter("margin", 0.01, 0.0, 0.1, "m kept from walls and other objects when planning a push"),
+         core::numberParameter("fix_period", 0.5, 0.0, 3600.0,
+                               "lockstep: s of simulated time between the overhead camera's frames the controller asks for "
+                               "while it steers by them (its fixes; 0: none, only the frames of the camera's own schedule)"),
          core::numberParameter("observation_max_age", 2.0, 1e-6, 3600.0,
                                "s: the oldest observation of the object a push starts from"),
          core::numberParameter("settle_time", 0.3, 0.0, 10.0, "s of simulated time the object is left to settle"),
@@ -160,7 +163,7 @@ void Manipulation::onConfigure() {
   observation_max_age_ = max_age;
   settle_time_ = settle;
   max_push_distance_ = max_push_distance;
-  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic);
+  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic, settings.fix_period);
 }
 
 void Manipulation::onDeactivate() { drive_.publishVelocity({}); }
@@ -307,6 +310,7 @@ std::optional<CommandOutcome> Manipulation::observeAfterPush(Push::Context& cont
   auto stopping = [&] { return context.stopRequested(); };
   // Let the object come to rest (the robot standing still), then take the first observation made after that.
   const ros::Time settled = ticker.now() + ros::Duration(settle_time_);
+  ticker.requestObservation(settled);  // in lockstep the camera renders when asked
   while (ticker.now() < settled) {
     if (!ticker.next({}, stopping) || !ticker.sense().empty()) {
       ticker.finish();
@@ -325,6 +329,7 @@ std::optional<CommandOutcome> Manipulation::observeAfterPush(Push::Context& cont
       }
       break;
     }
+    ticker.requestObservation();
     if (!ticker.next({}, stopping) || !ticker.sense().empty()) break;
   }
   return std::nullopt;

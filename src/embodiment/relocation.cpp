@@ -199,6 +199,9 @@ const core::ParameterTable& Relocation::parameters() {
          core::numberParameter("position_tolerance", 0.005, 1e-4, 0.1, "m: a go_to_pose is done this close"),
          core::numberParameter("yaw_tolerance", 0.026, 1e-3, 0.5, "rad: a turn is done this close"),
          core::numberParameter("margin", 0.01, 0.0, 0.1, "m kept from walls and objects by the path planner"),
+         core::numberParameter("fix_period", 0.5, 0.0, 3600.0,
+                               "lockstep: s of simulated time between the overhead camera's frames the controller asks for "
+                               "while it steers by them (its fixes; 0: none, only the frames of the camera's own schedule)"),
          core::numberParameter("obstacle_max_age", 5.0, 1e-6, 3600.0, "s: the oldest observation of the obstacles"),
          core::textParameter("observation_topic", "observation/features", "the overhead camera's feature vectors")});
     own.include(setupCatalogueParameters()).include(LockstepClient::parameters());
@@ -227,7 +230,7 @@ void Relocation::onConfigure() {
   options_.timeout = 120.0;
   margin_ = margin;
   obstacle_max_age_ = obstacle_max_age;
-  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic);
+  drive_.connect(nodeHandle(), privateNodeHandle(), observation_topic, settings.fix_period);
 }
 
 void Relocation::onDeactivate() { drive_.publishVelocity({}); }

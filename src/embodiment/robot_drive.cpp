@@ -14,6 +14,7 @@ DriveSettings DriveSettings::read(const ros::NodeHandle& nh, const ros::NodeHand
   settings.control_period = 1.0 / parameters.get<double>("control_rate");
   settings.limits.max_linear = parameters.get<double>("max_linear");
   settings.limits.max_angular = parameters.get<double>("max_angular");
+  settings.fix_period = parameters.get<double>("fix_period");
   settings.limits.require();
   return settings;
 }
@@ -22,7 +23,9 @@ void DriveSettings::requireWithinWheels() const {
   core::requireInRange("~max_linear", limits.max_linear, 1e-3, 2.0 * setup.max_wheel_speed);
 }
 
-void RobotDrive::connect(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const std::string& observation_topic) {
+void RobotDrive::connect(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const std::string& observation_topic,
+                         double fix_period) {
+  fix_period_ = fix_period;
   if (!cmd_vel_pub_) cmd_vel_pub_ = nh.advertise<geometry_msgs::Twist>("cmd_vel", 10);
   pose_source_ = std::make_unique<RobotPoseSource>(nh, "odom", observation_topic);
   lockstep_ = std::make_unique<LockstepClient>(nh, private_nh, private_nh.getNamespace(), false);
@@ -47,7 +50,7 @@ std::string RobotDrive::whyNotLocalized(const std::string& pose_source) const {
 
 ControlTicker RobotDrive::ticker(double period, bool uses_observation, std::string observation_participant) {
   return ControlTicker(lockstep_.get(), *pose_source_, period, uses_observation, std::move(observation_participant),
-                       [this](const core::Velocity2D& v) { publishVelocity(v); });
+                       [this](const core::Velocity2D& v) { publishVelocity(v); }, fix_period_);
 }
 
 }  // namespace xpersif

@@ -15,8 +15,18 @@ double yawOf(const geometry_msgs::Quaternion& q) {
 
 RobotPoseSource::RobotPoseSource(ros::NodeHandle nh, const std::string& odom_topic,
                                  const std::string& observation_topic) {
-  odom_sub_ = nh.subscribe(odom_topic, 50, &RobotPoseSource::onOdometry, this);
-  observation_sub_ = nh.subscribe(observation_topic, 5, &RobotPoseSource::onObservation, this);
+  nh.setCallbackQueue(&queue_);
+  const auto hints = ros::TransportHints().tcpNoDelay();
+  odom_sub_ = nh.subscribe(odom_topic, 50, &RobotPoseSource::onOdometry, this, hints);
+  observation_sub_ = nh.subscribe(observation_topic, 5, &RobotPoseSource::onObservation, this, hints);
+  spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
+  spinner_->start();
+}
+
+RobotPoseSource::~RobotPoseSource() {
+  spinner_->stop();  // no callback runs while the subscribers go
+  odom_sub_.shutdown();
+  observation_sub_.shutdown();
 }
 
 void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {

@@ -83,7 +83,7 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
       return false;
     }
     // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.)
-    ros::WallDuration(0.02).sleep();
+    ros::WallDuration(0.01).sleep();
   }
   *why = "shutting down";
   return false;

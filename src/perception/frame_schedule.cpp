@@ -1,12 +1,22 @@
 #include "xpersif/perception/frame_schedule.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace xpersif {
 
+core::ParameterSpec FrameSchedule::modeParameter() {
+  return core::textParameter("lockstep_frames", "on_request",
+                             "lockstep: on_request renders when an actor asks (a controller's fix) and whenever the "
+                             "world stands; periodic renders besides at ~rate Hz of physics time (doc/lockstep.md)",
+                             {"on_request", "periodic"});
+}
+
 void FrameSchedule::start(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, double rate,
-                          double max_wall_rate) {
+                          double max_wall_rate, bool periodic) {
   rate_ = rate;
+  periodic_ = periodic;
   max_wall_rate_ = max_wall_rate;
   lockstep_ = std::make_unique<LockstepClient>(nh, private_nh, private_nh.getNamespace(), true);
   if (!lockstep_->enabled()) {
@@ -34,11 +44,15 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
     epoch_ = t.epoch;
     next_due_ = 0;
   }
-  if (!t.idle && t.physics_time + 1e-9 < next_due_) return;
+  const bool asked = std::find(t.requested.begin(), t.requested.end(), client.name()) != t.requested.end();
+  if (!t.idle && !asked && t.physics_time + 1e-9 < next_due_) return;
   bool published = false;
   auto camera = camera_.camera();
   if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = render_(t.stamp);  // well within the clock's patience
-  if (!t.idle) next_due_ = (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_;
+  if (!t.idle) {
+    next_due_ = periodic_ ? (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_
+                          : std::numeric_limits<double>::infinity();
+  }
   client.report(t, false, published, {}, next_due_);
 }
 

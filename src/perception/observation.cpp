@@ -25,8 +25,9 @@ const core::ParameterTable& Observation::parameters() {
   static const core::ParameterTable table = [] {
     core::ParameterTable own(
         "observation",
-        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the overhead camera is rendered"),
+        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the overhead camera is rendered (realtime and fast; lockstep with lockstep_frames periodic)"),
          core::numberParameter("max_wall_rate", 30.0, 0.1, 1000.0, "realtime and fast modes: at most this many frames per wall second"),
+         FrameSchedule::modeParameter(),
          core::flagParameter("report_buffer_address", false,
                              "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)"),
          core::textParameter("camera/name", "overhead", "part camera: the scene's camera to render"),
@@ -42,11 +43,13 @@ void Observation::onConfigure() {
   const ParameterReader parameters(pnh, Observation::parameters());
   const double rate = parameters.get<double>("rate");
   const double max_wall_rate = parameters.get<double>("max_wall_rate");
+  const bool periodic_frames = parameters.get<std::string>("lockstep_frames") == "periodic";
   const bool report = parameters.get<bool>("report_buffer_address");
   {
     std::lock_guard<std::mutex> lock(mutex_);
     rate_ = rate;
     max_wall_rate_ = max_wall_rate;
+    periodic_frames_ = periodic_frames;
     report_address_ = report;
     features_.reset();
     frames_.advertise(pnh);
@@ -59,7 +62,7 @@ void Observation::onConfigure() {
 
 void Observation::onActivate() {
   AggregateComponent::onActivate();
-  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_);
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_, periodic_frames_);
 }
 
 void Observation::onDeactivate() {

@@ -47,8 +47,9 @@ const core::ParameterTable& Perception::parameters() {
   static const core::ParameterTable table = [] {
     core::ParameterTable own(
         "perception",
-        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the robot camera is rendered"),
+        {core::numberParameter("rate", 10.0, 0.1, 1000.0, "Hz of simulated time at which the robot camera is rendered (realtime and fast; lockstep with lockstep_frames periodic)"),
          core::numberParameter("max_wall_rate", 30.0, 0.1, 1000.0, "realtime and fast modes: at most this many frames per wall second"),
+         FrameSchedule::modeParameter(),
          core::textParameter("ir_ring/topic", "ir", "part ir_ring: the IR ranges' topic"),
          core::numberParameter("ir_ring/timeout", 2.0, 1e-6, 3600.0, "part ir_ring: s of ROS time without ranges before it is a problem"),
          core::textParameter("odometry/topic", "odom", "part odometry: the odometry's topic"),
@@ -66,10 +67,12 @@ void Perception::onConfigure() {
   const ParameterReader parameters(pnh, Perception::parameters());
   const double rate = parameters.get<double>("rate");
   const double max_wall_rate = parameters.get<double>("max_wall_rate");
+  const bool periodic_frames = parameters.get<std::string>("lockstep_frames") == "periodic";
   {
     std::lock_guard<std::mutex> lock(mutex_);
     rate_ = rate;
     max_wall_rate_ = max_wall_rate;
+    periodic_frames_ = periodic_frames;
     features_.reset();
     have_mount_ = false;
     frames_.advertise(pnh);
@@ -103,7 +106,7 @@ void Perception::onScene(const RenderedCamera& camera) {
 
 void Perception::onActivate() {
   AggregateComponent::onActivate();
-  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_);
+  schedule_.start(nodeHandle(), privateNodeHandle(), rate_, max_wall_rate_, periodic_frames_);
 }
 
 void Perception::onDeactivate() {

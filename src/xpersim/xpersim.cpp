@@ -473,8 +473,14 @@ void XPerSim::connect() {
   ir_pub_ = nh.advertise<IrRanges>("ir", 10);
   joints_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
   tick_pub_ = pnh.advertise<LockstepTick>("tick", 10);
-  lockstep_done_sub_ = pnh.subscribe<LockstepDone>("lockstep_done", 100, &XPerSim::onLockstepDone, this,
-                                                   ros::TransportHints().tcpNoDelay());
+  ros::NodeHandle report_nh(pnh);
+  report_nh.setCallbackQueue(&report_queue_);
+  lockstep_done_sub_ = report_nh.subscribe<LockstepDone>("lockstep_done", 100, &XPerSim::onLockstepDone, this,
+                                                         ros::TransportHints().tcpNoDelay());
+  if (!report_spinner_) {
+    report_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &report_queue_);
+    report_spinner_->start();
+  }
   const auto hints = ros::TransportHints().tcpNoDelay();
   cmd_vel_sub_ = nh.subscribe<geometry_msgs::Twist>("cmd_vel", 10, &XPerSim::onCmdVel, this, hints);
   wheel_speeds_sub_ = nh.subscribe<WheelSpeeds>("wheel_speeds", 10, &XPerSim::onWheelSpeeds, this, hints);
@@ -574,7 +580,8 @@ void XPerSim::publishFrameLocked() {
   // (A clock set back on purpose, a reset, moves by more than a millisecond and is taken as it is.)
   if (tf_stamp <= last_tf_stamp_ && (last_tf_stamp_ - tf_stamp).toSec() < 1e-3) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1);
   last_tf_stamp_ = tf_stamp;
-  tf2_msgs::TFMessage frame;
+  auto frame_message = boost::make_shared<tf2_msgs::TFMessage>();
+  tf2_msgs::TFMessage& frame = *frame_message;
   const core::FrameTransforms transforms = world_->dynamicTransforms();
   frame.transforms.reserve(transforms.size());
   for (const auto& node : world_->scene().nodes) {
@@ -586,7 +593,7 @@ void XPerSim::publishFrameLocked() {
     t.transform = toTransformMsg(transforms.at(node.name));
     frame.transforms.push_back(t);
   }
-  tf_pub_.publish(frame);
+  tf_pub_.publish(frame_message);
 }
 
 void XPerSim::publishSensorsLocked() {
@@ -604,7 +611,8 @@ void XPerSim::publishSensorsLocked() {
   ground_truth_pub_.publish(truth);
 
   const auto odometry = world_->odometry();
-  nav_msgs::Odometry odom;
+  auto odom_message = boost::make_shared<nav_msgs::Odometry>();
+  nav_msgs::Odometry& odom = *odom_message;
   odom.header.stamp = stamp;
   odom.header.frame_id = "odom";
   odom.child_frame_id = spec.robot.links[0].name;
@@ -614,7 +622,7 @@ void XPerSim::publishSensorsLocked() {
   odom.pose.pose = toPoseMsg(pose);
   odom.twist.twist.linear.x = odometry.linear;
   odom.twist.twist.angular.z = odometry.angular;
-  odom_pub_.publish(odom);
+  odom_pub_.publish(odom_message);
 
   IrRanges ir;
   ir.header.stamp = stamp;
@@ -706,7 +714,8 @@ void XPerSim::restoredLocked(const std::string& what) {
 }
 
 void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::string>& fresh) {
-  LockstepTick tick;
+  auto message = boost::make_shared<LockstepTick>();  // shared: a participant in this process gets it uncopied
+  LockstepTick& tick = *message;
   tick.clock = lockstep_clock_;
   tick.tick = lockstep_->tick();
   tick.phase = phase;
@@ -714,9 +723,10 @@ void XPerSim::publishTickLocked(std::uint8_t phase, const std::vector<std::strin
   tick.idle = last_tick_idle_;
   tick.physics_time = world_->time();
   tick.fresh = fresh;
+  if (phase == LockstepTick::SENSE) tick.requested = lockstep_->requested();
   tick.participants = lockstep_->participants();
   tick.epoch = epoch_;
-  tick_pub_.publish(tick);
+  tick_pub_.publish(message);
 }
 
 void XPerSim::traceLocked(const std::string& event) {
@@ -740,7 +750,8 @@ void XPerSim::onLockstepDone(const LockstepDone::ConstPtr& done) {
   std::string why = checkVector3("cmd_vel.linear", done->cmd_vel.linear);
   if (why.empty()) why = checkVector3("cmd_vel.angular", done->cmd_vel.angular);
   if (why.empty()) {
-    core::LockstepCoordinator::Command command{done->drives != 0, done->cmd_vel.linear.x, done->cmd_vel.angular.z};
+    core::LockstepCoordinator::Command command{done->drives != 0, done->cmd_vel.linear.x, done->cmd_vel.angular.z,
+                                               done->wants_frames};
     why = lockstep_->report(done->participant, done->tick,
                             done->phase == LockstepTick::SENSE ? core::LockstepCoordinator::Phase::Sense
                                                                : core::LockstepCoordinator::Phase::Act,

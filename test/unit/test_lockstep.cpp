@@ -2,6 +2,8 @@
 // go on, and what happens to a participant that does not answer.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "xpersif/core/common/lockstep.h"
 #include "xpersif/core/common/validation.h"
 
@@ -113,6 +115,37 @@ TEST(Lockstep, AnActorJoiningInSenseActsInThatTicksActPhase) {
   c.report("camera", 1, Phase::Sense, false, true);
   c.startAct(0.0);
   EXPECT_EQ(c.owed(), std::vector<std::string>{"controller"});
+}
+
+TEST(Lockstep, ACameraOnRequestRendersOnlyWhenAnActorAsksOrTheWorldStands) {
+  const double never = std::numeric_limits<double>::infinity();  // a sensor that renders on request only
+  LockstepCoordinator c(5.0);
+  c.join("overhead", Role::Sensor);
+  c.join("robot_camera", Role::Sensor);
+  c.join("controller", Role::Actor);
+  c.startTick(1, 0.0, 0.0, true);  // idle: both render the standing world
+  EXPECT_EQ(c.owed().size(), 2u);
+  c.report("overhead", 1, Phase::Sense, false, true, {}, never);
+  c.report("robot_camera", 1, Phase::Sense, false, true, {}, never);
+  c.startAct(0.0);
+  c.report("controller", 1, Phase::Act, true, false, {true, 0.1, 0.0, {}});
+  // The world moves and nobody asked: no camera is waited for.
+  c.startTick(2, 0.0, 0.02, false);
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.requested().empty());
+  c.startAct(0.0);
+  // The controller asks the overhead camera for a fix at the next tick (an unknown name asks nobody).
+  c.report("controller", 2, Phase::Act, true, false, {true, 0.1, 0.0, {"overhead", "gone"}});
+  c.startTick(3, 0.0, 0.04, false);
+  EXPECT_EQ(c.owed(), std::vector<std::string>{"overhead"});
+  EXPECT_EQ(c.requested(), std::vector<std::string>{"overhead"});
+  c.report("overhead", 3, Phase::Sense, false, true, {}, never);
+  EXPECT_EQ(c.startAct(0.0), std::vector<std::string>{"overhead"});
+  // Asked once, rendered once.
+  c.report("controller", 3, Phase::Act, true, false, {true, 0.1, 0.0, {}});
+  c.startTick(4, 0.0, 0.06, false);
+  EXPECT_TRUE(c.phaseComplete());
+  EXPECT_TRUE(c.requested().empty());
 }
 
 TEST(Lockstep, ALeavingDriverStopsTheRobotAndFreesThePhase) {

@@ -47,6 +47,7 @@ class LockstepClient {
     std::uint8_t phase = LockstepTick::ACT;
     ros::Time stamp;
     std::vector<std::string> fresh;  ///< ACT: sensors that published output stamped `stamp`
+    std::vector<std::string> requested;  ///< SENSE: sensors an actor asked a frame of at this tick
     bool idle = false;               ///< the physics did not advance in this tick
     double physics_time = 0;         ///< seconds the physics has run (excludes idle ticks)
     std::uint64_t epoch = 0;         ///< counts restores of the world's state: frame schedules start again

@@ -21,15 +21,17 @@
 
 namespace xpersif {
 
-/// The set-up and the parameters every component that moves the robot reads: ~control_rate, ~max_linear, ~max_angular.
+/// The set-up and the parameters every component that moves the robot reads: ~control_rate, ~max_linear, ~max_angular,
+/// ~fix_period.
 struct DriveSettings {
   EmbodimentSetup setup;
   double control_period = 0.02;
+  double fix_period = 0.5;    ///< ~fix_period: lockstep, s between the overhead camera's frames a controller asks for
   core::MotionLimits limits;  ///< the defaults, with ~max_linear and ~max_angular (checked)
 
   /**
    * @brief Load the set-up (the arena and the robot from the world file, the objects from XPERSim's scene) and
-   *        read the three parameters through @p parameters (the component's own table declares them).
+   *        read the four parameters through @p parameters (the component's own table declares them).
    * @throws std::runtime_error or core::ValidationError with a sentence naming what is wrong
    */
   static DriveSettings read(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh,
@@ -42,8 +44,10 @@ struct DriveSettings {
 class RobotDrive {
  public:
   /// On configure: advertise `cmd_vel` (once), follow the robot's pose on `odom` and @p observation_topic, and
-  /// make the lockstep client (an actor named after the component's private namespace).
-  void connect(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const std::string& observation_topic);
+  /// make the lockstep client (an actor named after the component's private namespace); its commands' tickers ask
+  /// the camera for a frame every @p fix_period s of simulated time (control_ticker.h).
+  void connect(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const std::string& observation_topic,
+               double fix_period);
   /// On shutdown: leave the lockstep clock and stop following the pose.
   void disconnect();
   /// Send @p velocity on `cmd_vel` (nothing before connect()).
@@ -58,6 +62,7 @@ class RobotDrive {
   RobotPoseSource* poseSource() const { return pose_source_.get(); }
 
  private:
+  double fix_period_ = 0;
   std::unique_ptr<RobotPoseSource> pose_source_;
   std::unique_ptr<LockstepClient> lockstep_;
   ros::Publisher cmd_vel_pub_;  // last: destroyed first

@@ -7,10 +7,12 @@
 #pragma once
 
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <condition_variable>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -34,8 +36,10 @@ std::vector<core::Obstacle> sceneObstacles(const std::vector<std::string>& names
 
 class RobotPoseSource {
  public:
-  /// Subscribes to @p odom_topic and @p observation_topic (resolved in @p nh's namespace).
+  /// Subscribes to @p odom_topic and @p observation_topic (resolved in @p nh's namespace), heard on a thread of its
+  /// own: a controller waiting for its tick's odometry never waits for a worker of a busy manager.
   RobotPoseSource(ros::NodeHandle nh, const std::string& odom_topic, const std::string& observation_topic);
+  ~RobotPoseSource();
 
   /// "" and the pose, or why there is none. @p source: "odometry" (or "") or "observation".
   std::string pose(const std::string& source, core::Pose2D* pose) const;
@@ -77,6 +81,8 @@ class RobotPoseSource {
   double linear_ = 0, angular_ = 0;
   ros::Time last_odometry_;
   FeatureVector::ConstPtr observation_;
+  ros::CallbackQueue queue_;  // outlives the subscribers
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
   ros::Subscriber odom_sub_, observation_sub_;  // last: destroyed first
 };
 

@@ -49,6 +49,7 @@ class Observation : public AggregateComponent {
   FeatureExtractionPart& extraction_;
   std::mutex mutex_;
   double rate_ = 10.0, max_wall_rate_ = 30.0;
+  bool periodic_frames_ = false;  // ~lockstep_frames periodic
   bool report_address_ = false;
   std::uint32_t seq_ = 0;
   LatestFeatures features_;

@@ -93,6 +93,7 @@ class Perception : public AggregateComponent {
   FeatureExtractionPart& extraction_;
   std::mutex mutex_;
   double rate_ = 10.0, max_wall_rate_ = 30.0;
+  bool periodic_frames_ = false;  // ~lockstep_frames periodic
   Eigen::Isometry3d base_from_camera_ = Eigen::Isometry3d::Identity();  // fixed mount, from the scene
   double base_height_ = 0;
   bool have_mount_ = false;

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <geometry_msgs/Twist.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 
@@ -190,6 +191,11 @@ class XPerSim : public Component {
   std::mutex wake_mutex_;
   std::condition_variable wake_;
   std::thread thread_;
+
+  // Reports are heard on a thread of their own, never behind the manager's other callbacks (a participant in the
+  // same manager reports without waiting for a worker); its queue outlives the subscriber.
+  ros::CallbackQueue report_queue_;
+  std::unique_ptr<ros::AsyncSpinner> report_spinner_;
 
   // ROS handles last (destroyed first).
   ros::Time last_tf_stamp_;  // frames between ticks get strictly later stamps (publishFrameLocked)

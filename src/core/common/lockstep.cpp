@@ -1,5 +1,6 @@
 #include "xpersif/core/common/lockstep.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <iterator>
 
@@ -61,10 +62,16 @@ void LockstepCoordinator::startTick(std::uint64_t tick, double now, double physi
   published_.clear();
   command_ = {};
   owe(Role::Sensor, now);
+  requested_now_.clear();
+  for (const auto& name : requested_next_) {
+    if (owed_.count(name)) requested_now_.push_back(name);  // only sensors taking part can be asked
+  }
+  requested_next_.clear();
   if (idle) return;
   for (auto it = owed_.begin(); it != owed_.end();) {
     const auto due = next_due_.find(it->first);
-    it = due != next_due_.end() && due->second > physics_time + 1e-9 ? owed_.erase(it) : std::next(it);
+    const bool asked = std::find(requested_now_.begin(), requested_now_.end(), it->first) != requested_now_.end();
+    it = !asked && due != next_due_.end() && due->second > physics_time + 1e-9 ? owed_.erase(it) : std::next(it);
   }
 }
 
@@ -86,6 +93,13 @@ std::string LockstepCoordinator::report(const std::string& name, std::uint64_t t
   if (!owed_.erase(name)) return "";
   if (phase == Phase::Sense && published) published_.push_back(name);
   if (phase == Phase::Sense) next_due_[name] = next_due;
+  if (phase == Phase::Act) {
+    for (const auto& sensor : command.wants_frames) {
+      if (std::find(requested_next_.begin(), requested_next_.end(), sensor) == requested_next_.end()) {
+        requested_next_.push_back(sensor);
+      }
+    }
+  }
   if (phase == Phase::Act && command.drives) {
     command_ = command;
     driver_ = name;

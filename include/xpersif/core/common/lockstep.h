@@ -31,6 +31,9 @@ namespace xpersif::core {
 struct LockstepCommand {
   bool drives = false;
   double linear = 0, angular = 0;  ///< m/s, rad/s
+  /// Sensors it needs a frame from at the next tick, whether or not their own schedule has one due (a controller
+  /// that steers by the overhead camera asks for a fix now and then; sensors render on request, not every tick).
+  std::vector<std::string> wants_frames;
 };
 
 /// Where the wall time of the stepped (not idle) ticks goes: the simulator adds each phase as it ends and shows
@@ -74,7 +77,8 @@ class LockstepCoordinator {
   std::vector<std::string> participants() const;
 
   /// Start tick @p tick's SENSE phase at wall time @p now. The sensors whose next frame is due by
-  /// @p physics_time (all of them in an @p idle tick) then owe a report; the others are not waited for.
+  /// @p physics_time (all of them in an @p idle tick), and those an actor asked a frame of in the tick before,
+  /// then owe a report; the others are not waited for.
   void startTick(std::uint64_t tick, double now, double physics_time = 0, bool idle = true);
   /// "" when accepted, else why not (unknown participant, another tick or phase, reported twice): the caller
   /// logs it; nothing changes. @p published (SENSE): it published output stamped with the tick's time.
@@ -83,6 +87,8 @@ class LockstepCoordinator {
                      const Command& command = {}, double next_due = 0);
   /// Every participant owed a report for the current phase has given it.
   bool phaseComplete() const { return owed_.empty(); }
+  /// The sensors an actor asked a frame of at the current tick (its SENSE ticks say so: requested()).
+  const std::vector<std::string>& requested() const { return requested_now_; }
   /// After a complete SENSE phase: start ACT at wall time @p now. Returns the sensors that published output.
   std::vector<std::string> startAct(double now);
   /// Participants whose report for the current phase is owed for the timeout or longer at wall time @p now
@@ -116,6 +122,7 @@ class LockstepCoordinator {
   std::map<std::string, double> next_due_;  // sensors: physics time of their next frame
   std::map<std::string, double> owed_;  // who owes a report for the current phase, since what wall time
   std::vector<std::string> published_;
+  std::vector<std::string> requested_next_, requested_now_;  // frames asked for at the next / the current tick
   std::uint64_t tick_ = 0;
   Phase phase_ = Phase::Act;  // tick 0 is complete: nothing is owed until the first tick starts
   bool wants_time_ = false;
