@@ -32,7 +32,7 @@ run() {
   XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
   set -u
   roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersif.launch clock_mode:="$mode" real_time_factor:=8 \
-    database:="$work/$name.db" run_dir:="$work/$name" snapshot:=false "$@" >"$work/$name.log" 2>&1 &
+    database:="$work/$name.db" run_dir:="$work/$name" snapshot:=false "$@" ${LAUNCH_ARGS:-} >"$work/$name.log" 2>&1 &
   launch=$!
   local began started ended
   began=$(date +%s.%N)
@@ -68,7 +68,9 @@ for mode in $modes; do
   physics="no physics-only figure (not lockstep)"
   if [ "$clock" = lockstep ]; then
     run "$mode-traced" "$clock" ${args[@]+"${args[@]}"} trace_file:="$work/$mode.trace"
-    physics=$("$replay" "$repo/worlds/default.yaml" "$work/$mode.trace" 0.02 5 3 | tail -1)
+    # XPERSim's seed is the launch's (seed:=1), not the design's.
+    physics=$("$replay" "$repo/worlds/default.yaml" "$work/$mode.trace" 0.02 1 3 | tail -1)
+    if [ -n "${KEEP_LOGS:-}" ]; then cp "$work/$mode.trace" "$KEEP_LOGS/"; fi
   fi
   python3 - "$mode" "$work" "$experiments" "$goals" "$physics" <<'PY'
 import datetime, json, re, sqlite3, statistics, sys
@@ -90,7 +92,8 @@ line = (f"{mode}: {experiments} experiments + {goals} goals in {wall:.1f} s (aft
 if physics.startswith("{"):
     p = json.loads(physics)
     line += (f"; {p['ticks']} stepped ticks, physics-only {p['physics_s_best']:.2f} s "
-             f"({p['ms_per_tick_best']:.3f} ms per tick, replay drift {1e3 * p['max_drift_m']:.1f} mm); "
+             f"({p['ms_per_tick_best']:.3f} ms per tick; replay off by at most {1e3 * p['robot_drift_max_m']:.1f} mm "
+             f"for the robot, median {1e3 * p['object_drift_median_m']:.1f} mm for objects); "
              f"loop / physics = {wall / p['physics_s_best']:.2f}")
     in_all = re.search(r"([\d.]+) in all", timing)
     if in_all:

@@ -56,7 +56,16 @@ LockstepClient::Tick LockstepClient::join(double timeout) {
     left_ = false;
   }
   std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
-  return joinLocked(timeout, lock);
+  const Tick now = joinLocked(timeout, lock);
+  // A SENSE tick of the joined clock that began after the join, heard before its answer: the sensor owes its report
+  // (the clock waits for it, and would drop it 10 s later). Served here; the clock waits for nothing else meanwhile.
+  std::optional<Tick> owed;
+  if (sensor_ && pending_sense_ && pending_sense_clock_ == clock_ && pending_sense_->tick > joined_at_) owed = pending_sense_;
+  pending_sense_.reset();
+  auto callback = on_tick_;
+  lock.unlock();
+  if (owed && callback) callback(*this, *owed);
+  return now;
 }
 
 LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock<std::mutex>& lock) {
@@ -79,6 +88,7 @@ LockstepClient::Tick LockstepClient::joinLocked(double timeout, std::unique_lock
   {
     std::lock_guard<std::mutex> guard(mutex_);
     joining_ = true;
+    pending_sense_.reset();
   }
   const bool answered = ros::service::call(service, call) && call.response.success;
   lock.lock();
@@ -200,6 +210,12 @@ void LockstepClient::onTickMessage(const LockstepTick::ConstPtr& message) {
       if (message->phase == LockstepTick::ACT && message->clock >= latest_act_clock_) {
         latest_act_ = tick;
         latest_act_clock_ = message->clock;
+      }
+      const bool listed = std::find(message->participants.begin(), message->participants.end(), name_) !=
+                          message->participants.end();
+      if (sensor_ && message->phase == LockstepTick::SENSE && listed) {
+        pending_sense_ = tick;  // join() serves it once the answer says which clock this is
+        pending_sense_clock_ = message->clock;
       }
       return;
     }

@@ -370,7 +370,7 @@ const core::ParameterTable& XPerSim::parameters() {
                              "lockstep: s of simulated time per control tick (rounded to whole physics steps)"),
        core::numberParameter("participant_timeout", 10.0, 0.01, 3600.0,
                              "lockstep: s of wall time a participant may owe a report before it is dropped"),
-       core::numberParameter("idle_period", 0.05, 1e-3, 10.0,
+       core::numberParameter("idle_period", 0.02, 1e-3, 10.0,
                              "lockstep: s of wall time without anyone wanting time before an idle tick (clock on, "
                              "physics still)"),
        core::textParameter("trace_file", "", "debug: append every stepped tick's command and poses to this file"),
@@ -385,7 +385,7 @@ struct XPerSim::Settings {
   std::string world_file, mode, trace_file;
   double real_time_factor = 1.0, tf_rate = 1000.0, sensor_rate = 50.0, max_frame_rate = 1000.0;
   bool start_paused = false;
-  double tick_period = 0.02, participant_timeout = 10.0, idle_period = 0.05;
+  double tick_period = 0.02, participant_timeout = 10.0, idle_period = 0.02;
   bool has_seed = false;
   int seed = -1;
 };

@@ -106,6 +106,10 @@ class LockstepClient {
   std::optional<Tick> latest_act_;  // the newest ACT tick heard
   std::uint64_t latest_act_clock_ = 0;  // the clock latest_act_ is of
   bool joining_ = false;  // a join call is under way: its first ACT tick may come before its answer
+  // A sensor's: the newest SENSE tick heard while its join call was under way. The clock may start the tick the
+  // new sensor owes before the join's answer is read (in one process it nearly always does); it is served then.
+  std::optional<Tick> pending_sense_;
+  std::uint64_t pending_sense_clock_ = 0;
   std::function<void(LockstepClient&, const Tick&)> on_tick_;
   ros::Publisher done_pub_;
   std::unique_ptr<ros::AsyncSpinner> tick_spinner_;  // serves tick_queue_ only

@@ -175,7 +175,7 @@ class XPerSim : public Component {
   std::string lineage_;      // WorldState.lineage: new with every world built from the file
   void newLineageLocked();
   double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
-  double idle_period_ = 0.05;     // wall s without demand before an idle tick
+  double idle_period_ = 0.02;     // wall s without demand before an idle tick
   double last_tick_wall_ = 0;
   double last_announce_wall_ = 0;  // wall time the clock last announced itself to nobody (a restarted simulator)
   bool last_tick_idle_ = false;
