@@ -53,12 +53,15 @@ class OvertakingSimulator {
  private:
   bool onLockstep(Lockstep::Request& request, Lockstep::Response& response) {
     participant_ = request.participant;
-    if (request.join) tick_pub_.publish(tick(kTick, LockstepTick::ACT));  // the sensors were quick
-    ros::WallDuration(0.3).sleep();                                       // the answer is slow
+    const bool sensor = request.role == Lockstep::Request::SENSOR;
+    // An actor: the sensors were quick, and the ACT tick it owes comes first. A sensor, joined in an ACT phase: the
+    // next tick starts at once (in one process it does), and its SENSE tick, which the sensor owes, comes first.
+    if (request.join) tick_pub_.publish(sensor ? tick(kTick + 1, LockstepTick::SENSE) : tick(kTick, LockstepTick::ACT));
+    ros::WallDuration(0.3).sleep();  // the answer is slow
     response.success = true;
     response.clock = kClock;
     response.tick = kTick;
-    response.phase = LockstepTick::SENSE;
+    response.phase = sensor ? LockstepTick::ACT : LockstepTick::SENSE;
     response.stamp = ros::Time(kTick * 0.02);
     return true;
   }
@@ -91,6 +94,46 @@ TEST(LockstepJoin, AnActTickHeardBeforeTheJoinsAnswerIsActedOn) {
   // It reports that tick, and goes on with the next.
   client.report(*act, true, false);
   EXPECT_TRUE(done.waitForMatch([](const LockstepDone& d) { return d.tick == kTick && d.phase == LockstepTick::ACT; }, 5.0));
+  client.leave();
+}
+
+TEST(LockstepJoin, ASenseTickHeardBeforeTheJoinsAnswerIsServed) {
+  ros::NodeHandle nh;
+  OvertakingSimulator sim(nh);
+  Recorder<LockstepDone> done(nh, kSim + "/lockstep_done");
+  ros::NodeHandle private_nh("~");
+  private_nh.setParam("lockstep_xpersim", kSim);
+  LockstepClient client(nh, private_nh, "/overtaken_sensor", true);
+  ASSERT_TRUE(waitFor([&] { return sim.connected(); }, 10.0)) << "the client subscribes to the ticks";
+  std::atomic<std::uint64_t> served{0};
+  client.onTick([&](LockstepClient& c, const LockstepClient::Tick& t) {
+    served = t.tick;
+    c.report(t, false, true, {}, 1e9);
+  });
+  client.join();
+  EXPECT_EQ(served.load(), kTick + 1) << "the SENSE tick that began before the join's answer was not served";
+  EXPECT_TRUE(done.waitForMatch(
+      [](const LockstepDone& d) { return d.tick == kTick + 1 && d.phase == LockstepTick::SENSE && d.published; }, 5.0))
+      << "the simulator would wait for that report, and drop the sensor 10 s later";
+  client.leave();
+}
+
+TEST(LockstepJoin, AnActorsReportCarriesTheFramesItAsksFor) {
+  ros::NodeHandle nh;
+  OvertakingSimulator sim(nh);
+  Recorder<LockstepDone> done(nh, kSim + "/lockstep_done");
+  ros::NodeHandle private_nh("~");
+  private_nh.setParam("lockstep_xpersim", kSim);
+  LockstepClient client(nh, private_nh, "/asking_actor", false);
+  ASSERT_TRUE(waitFor([&] { return sim.connected(); }, 10.0));
+  const auto act = client.reportAndWait(client.join(), {}, {}, 3.0);
+  ASSERT_TRUE(act.has_value());
+  client.report(*act, true, false, {true, 0.05, 0.0, {"/xpersif/observation"}});
+  EXPECT_TRUE(done.waitForMatch(
+      [](const LockstepDone& d) {
+        return d.participant == "/asking_actor" && d.wants_frames == std::vector<std::string>{"/xpersif/observation"};
+      },
+      5.0));
   client.leave();
 }
 
