@@ -10,6 +10,7 @@
 #include <ros/ros.h>
 
 #include <atomic>
+#include <memory>
 #include <string>
 
 #include "test_helpers.h"
@@ -71,17 +72,29 @@ class OvertakingSimulator {
   std::string participant_;
 };
 
+/// The simulator, the reports it hears, and one client of its clock.
+struct Overtaken {
+  Overtaken(const std::string& name, bool sensor) : sim(nh), done(nh, kSim + "/lockstep_done") {
+    ros::NodeHandle private_nh("~");
+    private_nh.setParam("lockstep_xpersim", kSim);
+    client = std::make_unique<LockstepClient>(nh, private_nh, name, sensor);
+  }
+  bool connected() const { return waitFor([&] { return sim.connected(); }, 10.0); }
+
+  ros::NodeHandle nh;
+  OvertakingSimulator sim;
+  Recorder<LockstepDone> done;
+  std::unique_ptr<LockstepClient> client;
+};
+
 }  // namespace
 
 TEST(LockstepJoin, AnActTickHeardBeforeTheJoinsAnswerIsActedOn) {
-  ros::NodeHandle nh;
-  OvertakingSimulator sim(nh);
-  Recorder<LockstepDone> done(nh, kSim + "/lockstep_done");
-  ros::NodeHandle private_nh("~");
-  private_nh.setParam("lockstep_xpersim", kSim);
-  LockstepClient client(nh, private_nh, "/overtaken_actor", false);
+  Overtaken test("/overtaken_actor", false);
+  LockstepClient& client = *test.client;
+  auto& done = test.done;
   ASSERT_TRUE(client.enabled());
-  ASSERT_TRUE(waitFor([&] { return sim.connected(); }, 10.0)) << "the client subscribes to the ticks";
+  ASSERT_TRUE(test.connected()) << "the client subscribes to the ticks";
 
   const LockstepClient::Tick joined = client.join();
   EXPECT_EQ(joined.tick, kTick);
@@ -98,13 +111,10 @@ TEST(LockstepJoin, AnActTickHeardBeforeTheJoinsAnswerIsActedOn) {
 }
 
 TEST(LockstepJoin, ASenseTickHeardBeforeTheJoinsAnswerIsServed) {
-  ros::NodeHandle nh;
-  OvertakingSimulator sim(nh);
-  Recorder<LockstepDone> done(nh, kSim + "/lockstep_done");
-  ros::NodeHandle private_nh("~");
-  private_nh.setParam("lockstep_xpersim", kSim);
-  LockstepClient client(nh, private_nh, "/overtaken_sensor", true);
-  ASSERT_TRUE(waitFor([&] { return sim.connected(); }, 10.0)) << "the client subscribes to the ticks";
+  Overtaken test("/overtaken_sensor", true);
+  LockstepClient& client = *test.client;
+  auto& done = test.done;
+  ASSERT_TRUE(test.connected()) << "the client subscribes to the ticks";
   std::atomic<std::uint64_t> served{0};
   client.onTick([&](LockstepClient& c, const LockstepClient::Tick& t) {
     served = t.tick;
@@ -119,13 +129,10 @@ TEST(LockstepJoin, ASenseTickHeardBeforeTheJoinsAnswerIsServed) {
 }
 
 TEST(LockstepJoin, AnActorsReportCarriesTheFramesItAsksFor) {
-  ros::NodeHandle nh;
-  OvertakingSimulator sim(nh);
-  Recorder<LockstepDone> done(nh, kSim + "/lockstep_done");
-  ros::NodeHandle private_nh("~");
-  private_nh.setParam("lockstep_xpersim", kSim);
-  LockstepClient client(nh, private_nh, "/asking_actor", false);
-  ASSERT_TRUE(waitFor([&] { return sim.connected(); }, 10.0));
+  Overtaken test("/asking_actor", false);
+  LockstepClient& client = *test.client;
+  auto& done = test.done;
+  ASSERT_TRUE(test.connected());
   const auto act = client.reportAndWait(client.join(), {}, {}, 3.0);
   ASSERT_TRUE(act.has_value());
   client.report(*act, true, false, {true, 0.05, 0.0, {"/xpersif/observation"}});
