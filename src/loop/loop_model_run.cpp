@@ -95,17 +95,31 @@ LoopModel::Ending LoopModel::startOrResume(RunState& run) {
   if (why.empty()) why = startInKnowledgeBase(run);
   if (!why.empty()) return CommandOutcome::aborted(run.result.message = "cannot start the run: " + why);
   run.result.run_id = run.start.run_id;
-  if (arrange_at_start_ && !run.start.resumed) {
-    why = arrangeInitialScene();
-    if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
-    lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
-  }
+  if (arrange_at_start_ && !run.start.resumed) arrangeAndSettle();
   run.done = run.start.experiments_designed;
   run.streak = core::FailureStreak(max_same_failures_);
   setState("experimenting");
   announceStart(run);
   if (run.start.resumed) restoreResumedWorld(run);
   return std::nullopt;
+}
+
+void LoopModel::arrangeAndSettle() {
+  // A simulator restarted between the arrangement and the first step's checkpoint (its manager died) would give
+  // that checkpoint its fresh, unarranged world, and the run other physics than an uninterrupted one: the world's
+  // lineage before and after says so, and the scene is arranged again on the new world.
+  for (int attempt = 1;; ++attempt) {
+    std::string why;
+    checkpointWorld(&why);
+    const std::string lineage = why.empty() ? world_lineage_ : std::string();
+    why = arrangeInitialScene();
+    if (!why.empty()) ROS_WARN("%s: could not arrange the scene: %s", name().c_str(), why.c_str());
+    lockstep_->sleepFor(ros::Duration(0.5));  // let odometry and the overhead camera see the new scene
+    std::string after_why;
+    checkpointWorld(&after_why);
+    if (lineage.empty() || !after_why.empty() || world_lineage_ == lineage || attempt == 3) return;
+    ROS_WARN("%s: the simulator was restarted while the scene was arranged; arranging it again", name().c_str());
+  }
 }
 
 std::string LoopModel::waitForComponents(RunState& run) {

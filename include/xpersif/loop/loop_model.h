@@ -203,6 +203,8 @@ class LoopModel : public Supervisor {
   const core::SetupCatalogue& catalogue();
   /// Put the objects and the robot where the world file has them (a new run starts from the same arena).
   std::string arrangeInitialScene();
+  /// The run's start: arrange the scene and let it settle, again if the simulator was restarted meanwhile.
+  void arrangeAndSettle();
   bool getScene(FeatureVector* scene, std::string* why);
 
   // ---- checkpoints and lost components (loop_model_checkpoints.cpp) ----
