@@ -120,6 +120,8 @@ int main(int argc, char** argv) {
     for (const auto& e : events) ticks += e.tick ? 1 : 0;
     if (ticks == 0) throw std::runtime_error("the trace has no stepped tick: was trace_file set in lockstep mode?");
 
+    // The steps of one tick, as XPERSim counts them (whole physics steps per tick_period).
+    const int per_tick = std::max(1, static_cast<int>(std::lround(tick_period / spec.physics.step)));
     double best = 1e300, total = 0;
     const std::string robot = spec.robot.links.at(0).name;
     double worst_drift = 0, object_drift = 0, object_drift_max = 0;
@@ -127,7 +129,6 @@ int main(int argc, char** argv) {
     for (int r = 0; r < repetitions; ++r) {
       xpersif::core::PhysicsWorld world(spec);
       if (seed >= 0) world.setRedrawSeed(static_cast<std::uint64_t>(seed));
-      const double step = spec.physics.step;
       double physics = 0;
       std::uint64_t steps_run = 0;
       double robot_drift = 0;
@@ -156,8 +157,6 @@ int main(int argc, char** argv) {
           }
           continue;
         }
-        // The steps of one tick, as XPERSim counts them (whole physics steps per tick_period).
-        const int per_tick = std::max(1, static_cast<int>(std::lround(tick_period / step)));
         const auto began = std::chrono::steady_clock::now();
         if (e.drives) world.setVelocity(e.linear, e.angular);
         for (int i = 0; i < per_tick; ++i) world.step();

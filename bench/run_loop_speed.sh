@@ -10,7 +10,8 @@
 # For a lockstep mode it runs the campaign twice: once timed, once with XPERSim's trace (the same ticks: lockstep is
 # deterministic), which bench/physics_replay steps again without messaging for the physics-only cost.
 # Prints one line per mode: wall, wall per experiment (median, p90), simulated s per push, ticks, the physics-only
-# cost and the ratio, and where a stepped tick's wall time went (XPERSim's ~status). KEEP_LOGS=DIR keeps the logs.
+# cost and the ratio, and where a stepped tick's wall time went (XPERSim's ~status). KEEP_LOGS=DIR keeps the logs
+# (and the traces); LAUNCH_ARGS='name:=value ...' adds xpersif.launch arguments to every mode (e.g. a parameters file).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 experiments=${1:-16} goals=${2:-2} modes=${3:-"before now"}
