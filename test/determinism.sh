@@ -39,7 +39,7 @@ campaign=(campaign --experiments 6 --goals 1 --design "$design" --seed 11)
 work=$(mktemp -d)
 launch=0
 cleanup() {
-  [ "$launch" -gt 0 ] && kill -INT "$launch" 2>/dev/null && wait "$launch" 2>/dev/null
+  [ "$launch" -gt 0 ] && stop_launch cleanup
   [ -n "${XPERSIF_OWN_MOUNTS:-}" ] && for d in "$work"/*.disk; do mountpoint -q "$d" && umount -l "$d"; done; true
   if [ -n "${KEEP_WORK:-}" ]; then echo "determinism: kept $work"; else rm -rf "$work"; fi
 }
@@ -76,6 +76,25 @@ interrupt() {  # interrupt NAME kill:M1+M2|stop:M1+M2: SIGKILL them, or SIGSTOP 
     echo "$name kill:$managers" >>"$work/interruptions"
     echo "determinism: $name: killed $managers (pids $pids) after $(stored "$db") stored"
   fi
+}
+
+stop_launch() {  # stop_launch NAME: SIGINT to the take's roslaunch, which stops its nodes (at most 17 s each, in
+  # parallel). One that still runs after 60 s is a roslaunch that hangs (seen once on CI, after crash10): the script
+  # says what is left and what roslaunch last logged, kills them, and goes on; the knowledge base is already written.
+  local tenths=0
+  kill -INT "$launch" 2>/dev/null || true
+  while kill -0 "$launch" 2>/dev/null && [ "$tenths" -lt 600 ]; do sleep 0.1; tenths=$((tenths + 1)); done
+  if kill -0 "$launch" 2>/dev/null; then
+    echo "determinism: $1: roslaunch (pid $launch) still runs 60 s after SIGINT; what is left of it:"
+    ps -o pid,stat,etime,wchan:24,args --pid "$launch" --ppid "$launch" | cut -c1-200 | sed 's/^/determinism:   /' || true
+    local own_log
+    own_log=$(find "${ROS_LOG_DIR:-$HOME/.ros/log}" -name "roslaunch-*-$launch.log" 2>/dev/null | head -1) || true
+    [ -n "$own_log" ] && tail -12 "$own_log" | cut -c1-300 | sed 's/^/determinism:   /'
+    kill -KILL $(pgrep -P "$launch") "$launch" 2>/dev/null || true
+    echo "$1" >>"$work/hung_shutdowns"
+  fi
+  wait "$launch" 2>/dev/null || true
+  launch=0
 }
 
 launch_trouble() {  # launch_trouble NAME: what the take's system said went wrong (CI keeps no log file)
@@ -152,8 +171,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
     else
       # A read-only disk stays so: the system stops, the knowledge base is copied to a good disk, and the
       # system starts again on the copy, as someone would do it.
-      kill -INT "$launch"
-      wait "$launch" || true
+      stop_launch "$name"
       cp "$db" "$work/$name.db"
       [ -f "$db-wal" ] && cp "$db-wal" "$work/$name.db-wal"
       db="$work/$name.db"
@@ -218,9 +236,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
     xpersif run "${campaign[@]}" | tail -1
   fi
   echo "determinism: $name campaign took $(($(date +%s) - started)) s"
-  kill -INT "$launch"
-  wait "$launch" || true
-  launch=0
+  stop_launch "$name"
   if [ -n "$disk" ]; then  # the knowledge base where the comparison looks for it
     [ "$db" = "$work/$name.db" ] || cp "$db" "$work/$name.db"
     umount "$disk"
@@ -260,5 +276,6 @@ if [ -s "$work/interruptions" ]; then
   echo "determinism: $(wc -l <"$work/interruptions") interruptions in $(cut -d' ' -f1 "$work/interruptions" | sort -u | wc -l) takes:" \
     "$(cut -d' ' -f2 "$work/interruptions" | sort | uniq -c | awk '{printf "%s%s x%s", (NR>1?", ":""), $2, $1}')"
 fi
+[ -s "$work/hung_shutdowns" ] && echo "determinism: roslaunch hung on SIGINT after: $(tr '\n' ' ' <"$work/hung_shutdowns")"
 echo "$((compared - failed)) passed, $failed failed"
 [ "$failed" -eq 0 ]
