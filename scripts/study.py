@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """A study: N seeds x designs x budget on the lockstep loop, headless, with a report (issue 16).
 
-    bash scripts/study.sh [--seeds N | --seed-list 1,2,5] [--designs random,learning_progress,error_max]
+    bash scripts/study.sh [--seeds N | --seed-list 1,2,5] [--designs random,random_null,learning_progress,oracle]
                           [--budget B] [--goals G] [--world FILE] [--out DIR] [--jobs J] [--evaluation-size M]
                           [--evaluation-objects a,b] [--evaluation-seed S] [--every K]
                           [--param component.name=value]... [--timeout SECONDS] [--report-only]
@@ -10,6 +10,9 @@ Every cell (design, seed) is one experiment file (OUT/experiments/) run by `rosl
 on a master of its own, into its own run directory (OUT/cells/DESIGN-seedNNN/), as many at once as --jobs
 (default: the number of cores). First, once per study, the held-out evaluation set: M random pushes on the
 learnable objects only (OUT/evaluation/, exported to OUT/evaluation_set.csv), the same for every design and seed.
+Two arms besides the designs: random_null (random design on other seeds: what chance alone gives) and oracle (random
+design on the learnable objects that move, known from the evaluation set; it starts when that set is done). The
+report's primary measure is study_measures.py's.
 A study that was interrupted resumes when run again with the same OUT: finished cells (status 0 and their curve)
 are skipped, unfinished ones are run again from scratch. The report (OUT/report/) comes from the knowledge bases
 and run directories alone: `--report-only` writes it again.
@@ -34,11 +37,14 @@ import time
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import xpersif_plots  # noqa: E402  (scripts/, beside this file)
+import study_measures  # noqa: E402  (scripts/, beside this file)
+import xpersif_plots  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # Object keys a world file may give an object whose behaviour is fixed (doc/worlds.md). An object with
 # any other key (e.g. a property the simulator redraws before each push) is taken as unlearnable.
+# The null arm runs random design on these seeds plus this offset, so that it shares no seed with random.
+NULL_SEED_OFFSET = 1000003
 STATIC_OBJECT_KEYS = {"name", "shape", "size", "radius", "length", "mass", "friction", "color", "pose"}
 
 
@@ -53,7 +59,9 @@ def parse_args(argv):
     p = argparse.ArgumentParser(prog="study.sh", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, default=None, help="seeds 1..N (default 3)")
     p.add_argument("--seed-list", default=None, help="these seeds, comma-separated (instead of --seeds)")
-    p.add_argument("--designs", default="random,learning_progress,error_max", help="comma-separated designs")
+    p.add_argument("--designs", default="random,random_null,learning_progress,error_max,oracle",
+                   help="comma-separated designs; random_null is random design on other seeds (the null), oracle is "
+                        "random design told which objects are unlearnable or trivial")
     p.add_argument("--budget", type=int, default=40, help="experiments per cell")
     p.add_argument("--goals", type=int, default=0,
                    help="goals per cell after its experiments, reached with the model it learned (default 0)")
@@ -61,7 +69,8 @@ def parse_args(argv):
                    help="the world file (default: the default experiment's, worlds/structured.yaml)")
     p.add_argument("--out", default=None, help="the study's directory (default studies/<time>)")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="cells at once (default: the cores)")
-    p.add_argument("--evaluation-size", type=int, default=40, help="pushes of the held-out evaluation set")
+    p.add_argument("--evaluation-size", type=int, default=None,
+                   help="pushes of the held-out evaluation set (default 30 per evaluation object)")
     p.add_argument("--evaluation-objects", default=None,
                    help="objects of the evaluation set (default: the world's objects but the unlearnable ones)")
     p.add_argument("--evaluation-seed", type=int, default=999, help="seed of the evaluation set")
@@ -91,8 +100,11 @@ def parse_args(argv):
         fail("--goals is %d; it must be in 0..10000" % a.goals)
     if a.jobs < 1:
         fail("--jobs is %d; it must be at least 1" % a.jobs)
-    if a.evaluation_size < 1:
+    if a.evaluation_size is not None and a.evaluation_size < 1:
         fail("--evaluation-size is %d; it must be at least 1" % a.evaluation_size)
+    if study_measures.NULL in a.designs and max(a.seed_list) > 2**31 - 1000 - NULL_SEED_OFFSET:
+        fail("the seeds of %s are the seeds + %d; seeds must then be at most %d" % (
+            study_measures.NULL, NULL_SEED_OFFSET, 2**31 - 1000 - NULL_SEED_OFFSET))
     if a.every is None:
         a.every = max(1, a.budget // 40)
     if a.every < 1:
@@ -104,7 +116,7 @@ def parse_args(argv):
         a.out = os.path.join(REPO, "studies", datetime.datetime.now().strftime("%Y%m%d-%H%M%S"))
     a.out = os.path.abspath(a.out)
     if a.timeout is None:
-        a.timeout = 240 + 10 * max(a.budget, a.evaluation_size)
+        a.timeout = 240 + 10 * max(a.budget, a.evaluation_size or 0, 30 * len(world_objects(a.world)))
     params = {}
     for item in a.param:
         m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)\.([A-Za-z_][A-Za-z0-9_]*)=(.*)", item)
@@ -172,6 +184,7 @@ class Cell:
         self.attempts = 0
         self.done_units = 0
         self.outcome = None  # (code, sentence)
+        self.waits_for_evaluation = False
 
     def status(self):
         try:
@@ -212,11 +225,50 @@ def plan(args, eval_objects):
         for design in args.designs:
             name = "%s-seed%03d" % (design, seed)
             f = os.path.join(args.out, "experiments", name + ".yaml")
-            experiment_file(f, name.replace("-", "_"), seed, args.world,
-                            {"kind": "experimentation", "name": design, "design": design, "experiments": args.budget,
-                             "goals": args.goals}, params)
-            cells.append(Cell(name, design, seed, args.budget, f, os.path.join(args.out, "cells", name)))
+            cell = Cell(name, design, seed, args.budget, f, os.path.join(args.out, "cells", name))
+            if design == study_measures.ORACLE:
+                cell.waits_for_evaluation = True  # its objects come from the evaluation set (arm_file)
+            else:
+                arm_file(args, cell, None)
+            cells.append(cell)
     return cells
+
+
+def arm_file(args, cell, moving):
+    """The cell's experiment file. The run is named after the arm; random_null runs random design on seeds shifted
+    by NULL_SEED_OFFSET; oracle runs random design on `moving` alone (the learnable objects that move)."""
+    design, seed, params = cell.design, cell.seed, args.params
+    if design == study_measures.NULL:
+        design, seed = "random", cell.seed + NULL_SEED_OFFSET
+    elif design == study_measures.ORACLE:
+        design = "random"
+        params = json.loads(json.dumps(params))
+        params.setdefault("design_of_experiments", {})["objects"] = moving
+    experiment_file(cell.file, cell.name.replace("-", "_"), seed, args.world,
+                    {"kind": "experimentation", "name": cell.design, "design": design, "experiments": args.budget,
+                     "goals": args.goals}, params)
+
+
+def evaluation_rows(evaluation):
+    """The evaluation set's successful pushes: (seq, object, side, offset, distance, dx, dy, dyaw) tuples."""
+    ev_db = os.path.join(evaluation.run_dir, "knowledge.db")
+    if not os.path.exists(ev_db):
+        return []
+    con = sqlite3.connect("file:%s?mode=ro" % ev_db, uri=True)
+    try:
+        run = con.execute("SELECT id FROM runs WHERE name = 'evaluation' ORDER BY id DESC LIMIT 1").fetchone()
+        if not run:
+            return []
+        return con.execute("SELECT seq, object, side, push_offset, distance, dx, dy, dyaw FROM experiments "
+                           "WHERE run_id = ? AND status = 'done' ORDER BY seq", run).fetchall()
+    finally:
+        con.close()
+
+
+def moving_from(evaluation, eval_objects):
+    rows = [dict(zip(("seq", "object", "side", "offset", "distance", "dx", "dy", "dyaw"), r))
+            for r in evaluation_rows(evaluation)]
+    return study_measures.moving_objects(rows, eval_objects)
 
 
 # ---- running the cells -------------------------------------------------------------------------------------
@@ -355,8 +407,23 @@ def run_cells(args, cells):
     signal.signal(signal.SIGTERM, interrupted)
     try:
         while queue or running:
-            while queue and len(running) < args.jobs:
-                cell = queue.pop(0)
+            while len(running) < args.jobs:
+                ready = [c for c in queue if not c.waits_for_evaluation or evaluation in finished_cells]
+                if not ready and evaluation in failed:  # the oracle's objects come from the evaluation set
+                    ready = [c for c in queue if c.waits_for_evaluation]
+                if not ready:
+                    break
+                cell = ready[0]
+                queue.remove(cell)
+                if cell.waits_for_evaluation:
+                    moving = moving_from(evaluation, args.eval_objects)[0] if evaluation in finished_cells else []
+                    if not moving:
+                        cell.outcome = (1, "the oracle has nothing to push: %s" % (
+                            "no evaluation object moved in the evaluation set" if evaluation in finished_cells else
+                            "the evaluation set failed"))
+                        failed.append(cell)
+                        continue
+                    arm_file(args, cell, moving)
                 start(cell)
                 running.append(cell)
             time.sleep(1.0)
@@ -502,6 +569,16 @@ def pct(x):
     return "never" if math.isinf(x) else "%.0f %%" % (100 * x)
 
 
+def object_curve(cell):
+    """{object: {k: error}} from the cell's curve_objects.csv ({} for a cell curved before it existed)."""
+    path = os.path.join(cell.run_dir, "curve_objects.csv")
+    out = {}
+    if os.path.exists(path):
+        for r in read_csv(path):
+            out.setdefault(r["object"], {})[int(r["experiments"])] = float(r["error"])
+    return out
+
+
 def cell_goals(cell):
     """The cell's goals from its knowledge base: (object, reached, final error, pushes), and the tolerance."""
     con = sqlite3.connect("file:%s?mode=ro" % os.path.join(cell.run_dir, "knowledge.db"), uri=True)
@@ -521,6 +598,108 @@ def cell_goals(cell):
         con.close()
 
 
+def measures_files(out, data, moving, budget):
+    """The primary measures (study_measures) from the cells' per-object curves, into measures.csv and
+    object_curves.csv."""
+    object_curves = {key: d["objects"] for key, d in data.items() if d["objects"]}
+    measured = study_measures.measures(object_curves, moving, budget)
+    with open(os.path.join(out, "cell_measures.csv"), "w", newline="") as f:
+        names = [n for n, _ in measured["fractions"]]
+        w = csv.writer(f)
+        w.writerow(["design", "seed", "log_area"] + ["error_" + n for n in names])
+        for (design, seed), v in sorted(measured["cells"].items()):
+            w.writerow([design, seed, v["area"]] + [v["error_" + n] for n in names])
+    with open(os.path.join(out, "measures.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["design", "measure", "seeds", "ratio_to_random", "ci_low", "ci_high"])
+        for row in measured["rows"]:
+            for name in ["area"] + ["error_" + n for n, _ in measured["fractions"]]:
+                w.writerow([row["design"], name, row["seeds"], *row[name]])
+            if row.get("paired"):
+                w.writerow([row["design"], "area_paired", row["seeds"], *row["paired"]])
+            if row.get("oracle_fraction"):
+                w.writerow([row["design"], "oracle_fraction", row["seeds"], *row["oracle_fraction"]])
+    with open(os.path.join(out, "object_curves.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["design", "object", "experiments", "seeds", "mean", "ci_low", "ci_high"])
+        for design in sorted({d for d, _ in object_curves}):
+            for o in sorted({o for (d, _), c in object_curves.items() if d == design for o in c}):
+                ks = sorted({k for (d, _), c in object_curves.items() if d == design and o in c for k in c[o]})
+                for k in ks:
+                    values = [c[o][k] for (d, _), c in object_curves.items() if d == design and k in c.get(o, {})]
+                    w.writerow([design, o, k, len(values), *mean_ci(values)])
+    return measured
+
+
+def measures_section(measured, moving, move_shares, ev_rows, eval_objects):
+    md = ["## Designs against random: the area under the log-error curve (primary)", ""]
+    counts = {o: sum(1 for r in ev_rows if r[1] == o) for o in eval_objects}
+    unpushed = [o for o in eval_objects if not counts[o]]
+    still = [o for o in eval_objects if o not in moving and counts[o]]
+    md.append("Per cell, the mean over its budget of log E(k), where E(k) is the prediction error after k experiments "
+              "averaged with equal weight over the learnable objects that move: %s (evaluation pushes %s)%s. A ratio is "
+              "exp(difference of the mean areas): the ratio of the geometric-mean errors over the budget; below 1 "
+              "is better than random. 95 %% intervals by bootstrap over seeds. An object moves when its median "
+              "travel in the evaluation set is at least %d %% of its median push distance (scripts/study_measures.py)."
+              % (", ".join("%s (%.0f %%)" % (o, 100 * move_shares.get(o, 0)) for o in moving) or "none",
+                 ", ".join("%s %d" % (o, counts[o]) for o in eval_objects),
+                 ("; not counted: %s (they do not move, so any model predicts them)" % ", ".join(
+                     "%s (%.0f %%)" % (o, 100 * move_shares.get(o, 0)) for o in still) if still else "") +
+                 ("; not judged: %s (no successful evaluation push)" % ", ".join(unpushed) if unpushed else ""),
+                 int(100 * study_measures.MOVES_SHARE)))
+    md.append("")
+    few = [o for o in moving if counts.get(o, 0) < 30]
+    if few:
+        md.append("Fewer than 30 evaluation pushes of %s: the curves are noisy (raise --evaluation-size)." % ", ".join(few))
+        md.append("")
+    if not measured["rows"]:
+        md.append("No design to compare with random (the study needs a random arm and another).")
+        md.append("")
+        return md
+    names = [n for n, _ in measured["fractions"]]
+    ks = dict(measured["fractions"])
+
+    def cell(t):
+        return "%.3f (%.3f–%.3f)" % t if t else "–"
+    md.append("| design | seeds | area ratio (unpaired) | area ratio (paired; r) | error at %s |" % " | ".join(
+        "%s (k=%d)" % (n, ks[n]) for n in names) + " fraction of the oracle's gain |")
+    md.append("|---|---|---|---|" + "---|" * len(names) + "---|")
+    for row in measured["rows"]:
+        paired = cell(row.get("paired")) + ("; r=%.2f" % row["pairing_r"] if not math.isnan(row.get("pairing_r", float("nan"))) else "")
+        frac = row.get("oracle_fraction")
+        md.append("| %s | %d | %s | %s | %s | %s |" % (
+            row["design"], row["seeds"], cell(row["area"]), paired, " | ".join(cell(row["error_" + n]) for n in names),
+            "%.0f %% (%.0f–%.0f %%)" % tuple(100 * x for x in frac) if frac else "–"))
+    md.append("")
+    null_row = next((r for r in measured["rows"] if r["design"] == study_measures.NULL), None)
+    if null_row:
+        r, lo, hi = null_row["area"]
+        if measured["null_seeds"] < study_measures.MIN_SEEDS:
+            judged = "%d seeds are too few for an interval, so nothing here can be judged." % measured["null_seeds"]
+        elif measured.get("null_ok"):
+            judged = "1.00 lies within its interval, as it must."
+        else:
+            judged = ("1.00 lies OUTSIDE its interval: chance alone made a difference this large, so no ratio above "
+                      "can be trusted (more seeds, or a biased measure).")
+        md.append("**The null** (random_null, random design on other seeds, against random): area ratio %.3f "
+                  "(%.3f–%.3f): %s" % (r, lo, hi, judged))
+    else:
+        md.append("**No null arm** (add random_null to --designs): nothing shows what chance alone gives here.")
+    base_seeds = sum(1 for d, _ in measured["cells"] if d == study_measures.BASE)
+    if base_seeds >= study_measures.MIN_SEEDS and not math.isnan(measured.get("detectable", float("nan"))):
+        md.append("")
+        md.append("With these seeds the study detects (80 %% power, 5 %% two-sided) an area ratio of %.2f or lower: "
+                  "an effect smaller than %.0f %% goes unseen." % (1 - measured["detectable"], 100 * measured["detectable"]))
+    md.append("")
+    for sentence in measured["verdicts"]:
+        md.append("- " + sentence + ".")
+    md.append("")
+    md.append("Files: `measures.csv` (every ratio with its interval), `cell_measures.csv` (per cell), "
+              "`object_curves.csv` (per object and design).")
+    md.append("")
+    return md
+
+
 def report(args, cells, eval_objects, eval_why):
     out = os.path.join(args.out, "report")
     os.makedirs(out, exist_ok=True)
@@ -535,21 +714,14 @@ def report(args, cells, eval_objects, eval_why):
             "curve": curve_rows,
             "experiments": read_csv(os.path.join(cell.run_dir, "experiments.csv")),
             "notions": read_csv(os.path.join(cell.run_dir, "notions.csv")),
+            "objects": object_curve(cell),
         }
     designs = [d for d in args.designs if any(k[0] == d for k in data)]
     seeds = sorted({k[1] for k in data})
     objects = [n for n, _ in world_objects(args.world)]
 
     # The evaluation set, stored with the study.
-    ev_rows = []
-    ev_db = os.path.join(evaluation.run_dir, "knowledge.db")
-    if os.path.exists(ev_db):
-        con = sqlite3.connect("file:%s?mode=ro" % ev_db, uri=True)
-        run = con.execute("SELECT id FROM runs WHERE name = 'evaluation' ORDER BY id DESC LIMIT 1").fetchone()
-        if run:
-            ev_rows = con.execute("SELECT seq, object, side, push_offset, distance, dx, dy, dyaw FROM experiments "
-                                  "WHERE run_id = ? AND status = 'done' ORDER BY seq", run).fetchall()
-        con.close()
+    ev_rows = evaluation_rows(evaluation)
     with open(os.path.join(args.out, "evaluation_set.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["seq", "object", "side", "offset", "distance", "dx", "dy", "dyaw"])
@@ -652,6 +824,8 @@ def report(args, cells, eval_objects, eval_why):
         w.writerows(test_rows)
 
     plots(out, designs, curve_rows, share_rows, objects)
+    moving, move_shares = moving_from(evaluation, eval_objects)
+    measured = measures_files(out, data, moving, args.budget)
 
     # report.md
     md = ["# Study: %s" % os.path.basename(args.out), ""]
@@ -669,7 +843,8 @@ def report(args, cells, eval_objects, eval_why):
                   len(ev_rows), ", ".join(eval_objects), eval_why, args.evaluation_seed,
                   args.params.get("machine_learning", {}).get("learner_type", "random_forest"), args.every))
     md.append("")
-    md.append("## Learning curves (mean over seeds, 95 % t-interval)")
+    md.extend(measures_section(measured, moving, move_shares, ev_rows, eval_objects))
+    md.append("## Learning curves on the whole evaluation set (mean over seeds, 95 % t-interval)")
     md.append("")
     md.append("![learning curves](learning_curves.png)")
     md.append("")
@@ -683,7 +858,10 @@ def report(args, cells, eval_objects, eval_why):
             design, len(rows), fmt(sum(first) / len(first)), fmt(m), fmt(lo), fmt(hi),
             sum(r["learned"] for r in rows) / len(rows), sum(r["failed"] for r in rows) / len(rows)))
     md.append("")
-    md.append("## Experiments needed to reach random design's final error (per seed)")
+    md.append("## Secondary: experiments needed to reach random design's final error (per seed)")
+    md.append("")
+    md.append("The first crossing of one noisy curve with the other's noisy end point: random_null's row is what "
+              "chance alone gives.")
     md.append("")
     rng = random.Random(0)
     for design in designs:
@@ -830,6 +1008,9 @@ def main(argv):
     if args.report_only:
         check_study_is_there(args)
     eval_objects, eval_why = evaluation_objects(args)
+    args.eval_objects = eval_objects
+    if args.evaluation_size is None:
+        args.evaluation_size = 30 * len(eval_objects)
     cells = plan(args, eval_objects)
     if args.report_only and not any(cell.finished() for cell in cells):
         fail("--report-only: no cell of the study in %s has finished; there is nothing to report" % args.out, 3)

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# A tiny study through scripts/study.py (issue 16): 2 seeds x 2 designs (random, learning_progress) x 10 experiments
-# and a goal each, on the default experiment's world, with a held-out evaluation set of 6 pushes, two cells at once, each on a master of its own; then
+# A tiny study through scripts/study.py (issues 16, 38): 2 seeds x 4 arms (random, its null random_null,
+# learning_progress, the oracle) x 10 experiments and a goal each, on the default experiment's world, with a held-out
+# evaluation set of 8 pushes, two cells at once, each on a master of its own; then
 #  - test/study_check.py: the report's files exist and its figures agree with the knowledge bases (evaluation set
-#    only on the learnable objects, per-cell counts, curves recomputed, reach, shares per object, goals);
+#    only on the learnable objects, per-cell counts, curves and per-object curves recomputed, the null's seeds, the
+#    oracle's objects, the primary measure recomputed on its own, reach, shares per object, goals);
 #  - the same command again resumes: every cell is skipped and the report is the same.
 #   bash test/study.sh BUILD_DIR        KEEP=1 keeps the study's directory
 set -eo pipefail
@@ -19,7 +21,7 @@ cleanup() { [ -n "${KEEP:-}" ] && echo "kept $T" || rm -rf "$T"; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-args=(--seeds 2 --designs random,learning_progress --budget 10 --goals 1 --evaluation-size 6 --every 1 --jobs 2
+args=(--seeds 2 --designs random,random_null,learning_progress,oracle --budget 10 --goals 1 --evaluation-size 8 --every 1 --jobs 2
       --out "$T/study")
 started=$SECONDS
 /usr/bin/python3 "$HERE/scripts/study.py" "${args[@]}" 2>"$T/first.log" || { cat "$T/first.log"; fail "the study failed"; }
@@ -31,7 +33,7 @@ cp "$T/study/report/cells.csv" "$T/cells_first.csv"
 
 started=$SECONDS
 /usr/bin/python3 "$HERE/scripts/study.py" "${args[@]}" 2>"$T/second.log" || { cat "$T/second.log"; fail "resuming failed"; }
-grep -q "5 of 5 cells already finished" "$T/second.log" || { cat "$T/second.log"; fail "resuming did not skip the finished cells"; }
+grep -q "9 of 9 cells already finished" "$T/second.log" || { cat "$T/second.log"; fail "resuming did not skip the finished cells"; }
 cmp -s "$T/cells_first.csv" "$T/study/report/cells.csv" || fail "the resumed study's report differs"
 echo "ok: the same command again skipped every cell ($((SECONDS - started)) s) and wrote the same figures"
 

@@ -35,7 +35,7 @@ def close(a, b, tol=1e-6):
     return abs(float(a) - float(b)) <= tol * max(1.0, abs(float(a)), abs(float(b)))
 
 
-for name in ["report.md", "learning_curves.csv", "learning_curves.png", "reach.csv", "tests.csv", "object_share.csv",
+for name in ["measures.csv", "cell_measures.csv", "object_curves.csv", "report.md", "learning_curves.csv", "learning_curves.png", "reach.csv", "tests.csv", "object_share.csv",
              "object_share.png", "cells.csv", "goals.csv"]:
     check(os.path.getsize(os.path.join(report, name)) > 0, "report/%s is missing or empty" % name)
 check(os.path.exists(os.path.join(study, "evaluation_set.csv")), "evaluation_set.csv is missing")
@@ -58,13 +58,18 @@ con.close()
 cells = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "cells.csv"))}
 check(set(cells) == {(d, s) for d in designs for s in seeds}, "cells.csv has %s" % sorted(cells))
 curves = {}
+object_curves = {}
+pushed_objects = {}
 shares_kb = {}
 goals_kb = []
 for (design, seed), cell in cells.items():
     d = os.path.join(study, "cells", "%s-seed%03d" % (design, seed))
     con = sqlite3.connect(os.path.join(d, "knowledge.db"))
     runs = con.execute("SELECT id, seed, design FROM runs WHERE name = ?", (design,)).fetchall()
-    check(len(runs) == 1 and runs[0][1] == seed and runs[0][2] == design,
+    # The null arm is random design on the seed + 1000003; the oracle random design on the moving objects alone.
+    run_design, run_seed = ("random", seed + 1000003) if design == "random_null" else (
+        ("random", seed) if design == "oracle" else (design, seed))
+    check(len(runs) == 1 and runs[0][1] == run_seed and runs[0][2] == run_design,
           "%s-%d: the knowledge base's runs are %s" % (design, seed, runs))
     run = runs[0][0]
     ex = con.execute("SELECT seq, object, status, design FROM experiments WHERE run_id = ? AND seq <= ? ORDER BY seq",
@@ -81,7 +86,7 @@ for (design, seed), cell in cells.items():
               % (design, seed, g[0], g[1], g[2], tolerance))
         goals_kb.append((design, seed, g[0], int(g[1]), g[2], g[3]))
     check(len(ex) == budget == int(cell["designed"]), "%s-%d: %d designed in the KB, %s in cells.csv" % (design, seed, len(ex), cell["designed"]))
-    check(all(e[3] == design for e in ex), "%s-%d: experiments designed by %s" % (design, seed, {e[3] for e in ex}))
+    check(all(e[3] == run_design for e in ex), "%s-%d: experiments designed by %s" % (design, seed, {e[3] for e in ex}))
     check(sum(e[2] != "done" for e in ex) == int(cell["failed"]), "%s-%d: failed count differs" % (design, seed))
     for o in set(all_objects) | {k[2:] for k in cell if k.startswith("n_")}:
         check(sum(e[1] == o for e in ex) == int(cell.get("n_" + o, 0) or 0), "%s-%d: count of %s differs" % (design, seed, o))
@@ -92,6 +97,13 @@ for (design, seed), cell in cells.items():
                         "--database", os.path.join(d, "knowledge.db"), "--run", design, "--out", t, "--every", "1"],
                        check=True, capture_output=True)
         again = [(int(r["experiments"]), float(r["error"])) for r in rows(os.path.join(t, "curve.csv"))]
+        again_objects = rows(os.path.join(t, "curve_objects.csv"))
+    check(again_objects == rows(os.path.join(d, "curve_objects.csv")),
+          "%s-%d: the per-object curve recomputed from the KB differs from curve_objects.csv" % (design, seed))
+    object_curves[(design, seed)] = {}
+    for r in again_objects:
+        object_curves[(design, seed)].setdefault(r["object"], {})[int(r["experiments"])] = float(r["error"])
+    pushed_objects[(design, seed)] = {e[1] for e in ex}
     stored_curve = [(int(r["experiments"]), float(r["error"])) for r in rows(os.path.join(d, "curve.csv"))]
     check(again == stored_curve, "%s-%d: the curve recomputed from the KB differs from curve.csv" % (design, seed))
     check(again[-1][0] == sum(e[2] == "done" for e in ex) == int(cell["learned"]),
@@ -135,7 +147,54 @@ stored_goals = [(r["design"], int(r["seed"]), r["object"], int(r["reached"]), fl
                 for r in rows(os.path.join(report, "goals.csv"))]
 check(sorted(stored_goals) == sorted(goals_kb), "goals.csv differs from the knowledge bases' goals")
 
+# The primary measure, recomputed here on its own: which objects move (median travel >= 10 % of the median push
+# distance in the evaluation set), their equal-weight mean error at every k, the trapezoid mean of its log.
+con = sqlite3.connect(os.path.join(study, "evaluation", "knowledge.db"))
+ev_moves = con.execute("SELECT object, distance, dx, dy, dyaw FROM experiments WHERE run_id = ? AND status = 'done'",
+                       (run_id,)).fetchall()
+con.close()
+
+
+def med(v):
+    v = sorted(v)
+    return v[len(v) // 2] if len(v) % 2 else (v[len(v) // 2 - 1] + v[len(v) // 2]) / 2
+
+
+moving = sorted(o for o in eval_objects if any(r[0] == o for r in ev_moves) and
+                med([math.hypot(r[2], r[3]) + 0.02 * abs(r[4]) for r in ev_moves if r[0] == o]) >=
+                0.1 * med([abs(r[1]) for r in ev_moves if r[0] == o]))
+check(moving, "no evaluation object moved; the study's world should have some")
+stored_areas = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "cell_measures.csv"))}
+check(set(stored_areas) == set(object_curves), "cell_measures.csv has cells %s" % sorted(stored_areas))
+area = {}
+for key, oc in object_curves.items():
+    ks = sorted(set.intersection(*(set(oc[o]) for o in moving)))
+    points = [(k, math.log(sum(oc[o][k] for o in moving) / len(moving))) for k in ks]
+    area[key] = sum((k1 - k0) * (v0 + v1) / 2 for (k0, v0), (k1, v1) in zip(points, points[1:])) / (ks[-1] - ks[0])
+    check(key in stored_areas and close(stored_areas[key]["log_area"], area[key]),
+          "cell_measures.csv %s: log area %s, recomputed %s" % (key, stored_areas.get(key, {}).get("log_area"), area[key]))
+    if key[0] == "oracle":
+        check(pushed_objects[key] <= set(moving), "the oracle %s pushed %s, beyond the moving objects %s"
+              % (key, sorted(pushed_objects[key]), moving))
+measures = rows(os.path.join(report, "measures.csv"))
+for design in designs:
+    if design == "random":
+        continue
+    row = next((r for r in measures if r["design"] == design and r["measure"] == "area"), None)
+    if not check(row is not None, "measures.csv has no area ratio for %s" % design):
+        continue
+    mine = [area[k] for k in area if k[0] == design]
+    base = [area[k] for k in area if k[0] == "random"]
+    want = math.exp(sum(mine) / len(mine) - sum(base) / len(base))
+    check(close(row["ratio_to_random"], want), "measures.csv %s: area ratio %s, recomputed %s" % (design, row["ratio_to_random"], want))
+    check(float(row["ci_low"]) <= float(row["ratio_to_random"]) <= float(row["ci_high"]),
+          "measures.csv %s: the interval does not hold the ratio" % design)
+
 text = open(os.path.join(report, "report.md")).read()
+if "random_null" in designs:
+    check("**The null**" in text, "report.md does not show the null arm")
+check("no difference from random can be claimed" in text or "than random (area ratio" in text,
+      "report.md has no plain sentence on the designs")
 for design in designs:
     reached = [g for g in goals_kb if g[0] == design]
     if reached:

@@ -8,7 +8,8 @@
 // the same pushes for every design and seed of a study. The cell's model after k experiments is MACHINELEARNING's
 // learner, configured as MACHINELEARNING configures it (evaluation.h), trained on the run's first k successful
 // designed experiments; its RMS error on the evaluation set (m) for k = 0, K, 2K, ... and the last k goes to
-// DIR/curve.csv (experiments,error). `--learner per_object` trains one model per object instead, each on that
+// DIR/curve.csv (experiments,error), and per object of the evaluation set to DIR/curve_objects.csv
+// (experiments,object,error,pushes). `--learner per_object` trains one model per object instead, each on that
 // object's pushes alone (core::LearnerScope; bench/loop.md compares the two on a study's knowledge bases). DIR/notions.csv gets the run's notions (subject,predicate,confidence,
 // support,text), DIR/experiments.csv every designed experiment of the run in order (seq,object,side,offset,
 // distance,status,surprise). Exit codes: --help.
@@ -114,13 +115,20 @@ int main(int argc, char** argv) {
     std::ofstream csv(out + "/curve.csv");
     csv << "experiments,error\n" << std::setprecision(9);
     for (std::size_t i = 0; i < curve.experiments.size(); ++i) csv << curve.experiments[i] << "," << curve.error[i] << "\n";
+    std::ofstream objects(out + "/curve_objects.csv");
+    objects << "experiments,object,error,pushes\n" << std::setprecision(9);
+    for (const auto& [object, errors] : curve.object_error) {
+      for (std::size_t i = 0; i < errors.size(); ++i) {
+        objects << curve.experiments[i] << "," << object << "," << errors[i] << "," << curve.object_pushes.at(object) << "\n";
+      }
+    }
     std::ofstream notions(out + "/notions.csv");
     notions << "subject,predicate,confidence,support,text\n";
     for (const auto& notion : kb->notions(run.id)) {
       notions << notion.subject << "," << notion.predicate << "," << notion.confidence << "," << notion.support << ","
               << csvText(notion.text) << "\n";
     }
-    if (!csv || !notions || !experiments) throw std::runtime_error("cannot write into " + out);
+    if (!csv || !objects || !notions || !experiments) throw std::runtime_error("cannot write into " + out);
     std::cout << run_name << ": " << training.size() << " experiments learned, " << evaluation.size()
               << " evaluation pushes, final error " << curve.error.back() << " m\n";
   } catch (const KnowledgeBaseError& e) {

@@ -1,3 +1,4 @@
+#include <cmath>
 // The learning-curve evaluation used by the report: trained on a run's first k experiments, judged on a
 // fixed evaluation set, straight from the knowledge base's records.
 #include <gtest/gtest.h>
@@ -59,6 +60,19 @@ TEST(Evaluation, ErrorFallsAsTheModelLearnsAndTheCurveFindsWhereItReachesAnError
   // Deterministic: the same records give the same curve.
   const LearningCurve again = learningCurve("random", pushSamples(train), pushSamples(test), config, {0, 5, 20, 40});
   EXPECT_EQ(again.error, curve.error);
+  // Per object: every object of the evaluation set has a point at every k, and the objects' squared errors,
+  // weighted by their pushes, make up the whole set's.
+  int pushes = 0;
+  for (const auto& [object, n] : curve.object_pushes) pushes += n;
+  EXPECT_EQ(pushes, 20);
+  for (std::size_t i = 0; i < curve.experiments.size(); ++i) {
+    double squares = 0;
+    for (const auto& [object, errors] : curve.object_error) {
+      ASSERT_EQ(errors.size(), curve.experiments.size()) << object;
+      squares += curve.object_pushes.at(object) * errors[i] * errors[i];
+    }
+    EXPECT_NEAR(std::sqrt(squares / pushes), curve.error[i], 1e-12);
+  }
 }
 
 TEST(Evaluation, RunParametersAreReadFromTheStoredJsonOrFallBack) {

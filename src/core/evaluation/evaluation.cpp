@@ -72,6 +72,7 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
                             const std::vector<int>& checkpoints, LearnerScope scope) {
   LearningCurve curve;
   curve.name = name;
+  for (const auto& s : evaluation) ++curve.object_pushes[s.input.experiment.object];
   for (int k : checkpoints) {
     if (k < 0 || k > static_cast<int>(training.size())) continue;
     const std::vector<PushSample> first(training.begin(), training.begin() + k);
@@ -80,12 +81,17 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
     else learner = std::make_unique<PushLearner>(config);
     if (!first.empty()) learner->addSamples(first);
     double sum = 0;
+    std::map<std::string, double> object_sum;
     for (const auto& s : evaluation) {
       const double e = surprise(learner->predict(s.input), s.outcome).error;
       sum += e * e;
+      object_sum[s.input.experiment.object] += e * e;
     }
     curve.experiments.push_back(k);
     curve.error.push_back(evaluation.empty() ? NAN : std::sqrt(sum / evaluation.size()));
+    for (const auto& [object, squares] : object_sum) {
+      curve.object_error[object].push_back(std::sqrt(squares / curve.object_pushes[object]));
+    }
   }
   return curve;
 }

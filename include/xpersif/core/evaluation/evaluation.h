@@ -11,6 +11,7 @@
  */
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,10 @@ struct LearningCurve {
   std::string name;
   std::vector<int> experiments;  ///< k
   std::vector<double> error;     ///< RMS error on the evaluation set after k experiments, m
+  /// The same per object of the evaluation set (its pushes alone), in the order of `experiments`: a study weighs
+  /// the objects equally from these, so that the object with the most evaluation pushes does not decide the curve.
+  std::map<std::string, std::vector<double>> object_error;
+  std::map<std::string, int> object_pushes;  ///< evaluation pushes per object
 };
 
 /// How the learner is trained: one model over every object (learner_type random_forest, MACHINELEARNING's
