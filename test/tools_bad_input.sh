@@ -174,6 +174,9 @@ case_ "a truncated knowledge base" 3 "truncated.db" -- "$P" --database "$T/trunc
 case_ "a directory as knowledge base" 3 "is a directory" -- "$P" --database "$T/nobags" --out "$T/out"
 case_ "an unreadable knowledge base (nobody)" 3 "cannot be read" -- "${as_nobody[@]}" "$P" --database "$T/locked/secret.db" --out "$T/out"
 case_ "--out a directory without permission (nobody)" 4 "cannot be written" -- "${as_nobody[@]}" "$P" --database "$T/full.db" --out "$T/readonly/r"
+printf 'objects: [\n' >"$T/broken_world.yaml"
+case_ "a missing world file: --world" 3 "does not exist" -- "$P" --database "$T/full.db" --out "$T/out" --world "$T/missing.yaml"
+case_ "a malformed world file: --world" 3 "not valid YAML" -- "$P" --database "$T/full.db" --out "$T/out" --world "$T/broken_world.yaml"
 [[ -e "$T/missing.db" ]] && failures+=("xpersif_report: created the missing knowledge base")
 
 # xpersif (the console)

@@ -445,7 +445,7 @@ class Runner {
     }
     say("report", "writing the report into " + run_dir_);
     std::vector<std::string> argv = {sibling("xpersif_report"), "--database", run_dir_ + "/knowledge.db", "--out", run_dir_,
-                                     "--evaluation", evaluation.front()};
+                                     "--evaluation", evaluation.front(), "--world", world_copy_};
     std::string designs;
     for (const auto& name : spec_.phaseNames("experimentation")) designs += (designs.empty() ? "" : ",") + name;
     if (!designs.empty()) argv.insert(argv.end(), {"--designs", designs});

@@ -5,8 +5,9 @@
 // Writes DIR/report.md (also printed), DIR/learning_curve.csv and DIR/learning_curve.png (drawn by
 // scripts/plot_learning_curve.py with matplotlib, as the study report's figures are): the prediction
 // error on the evaluation run's experiments against the number of experiments learned from, for each design
-// run (the latest run of each name), the experiments each design needed to reach the error random design ends
-// with, the notions learned, and the goal-directed pushes' success.
+// run (the latest run of each name), the designs compared on the studies' primary measure (doc/studies.md) with
+// what one seed can and cannot say, the experiments each design needed to reach the error random design ends
+// with (secondary), the notions learned, and the goal-directed pushes' success.
 //
 // Exit codes as every tool of the package (core/command_line.h, doc/exit-codes.md): 0 written, 1 the report
 // failed (a run it needs is missing), 2 usage, 3 the knowledge base is missing, unreadable or corrupt, 4 DIR
@@ -28,6 +29,7 @@
 #include "xpersif/core/common/contract.h"
 #include "xpersif/core/evaluation/evaluation.h"
 #include "xpersif/core/kb/knowledge_base.h"
+#include "xpersif/core/sim/world_spec.h"
 #include "tool_command_line.h"
 
 using namespace xpersif::core;
@@ -85,7 +87,7 @@ std::string featureChoice(KnowledgeBase& kb, std::int64_t run_id) {
 
 /// The command line's choices.
 struct Options {
-  std::string database, out = ".", evaluation = "evaluation", goals;
+  std::string database, out = ".", evaluation = "evaluation", goals, world;
   std::vector<std::string> designs = {"curiosity", "random"};
 };
 
@@ -108,6 +110,9 @@ std::optional<int> parseArguments(int argc, char** argv, Options& options) {
          "the design runs to compare, comma-separated")
       ->default_str("curiosity,random");
   app.add_option("--goals", options.goals, "the run whose goals are reported");
+  app.add_option("--world", options.world,
+                 "the world the runs ran in: objects whose friction the simulator redraws before every push are "
+                 "unlearnable and left out of the designs' measure");
   return xpersif::tools::parse(app, argc, argv);
 }
 
@@ -118,6 +123,12 @@ int checkFiles(const Options& options) {
   if (const std::string why = checkReadableFile("knowledge base", options.database); !why.empty()) {
     std::cerr << "xpersif_report: " << why << "\n";
     return kExitBadInput;
+  }
+  if (!options.world.empty()) {
+    if (const std::string why = checkReadableFile("world file", options.world); !why.empty()) {
+      std::cerr << "xpersif_report: " << why << "\n";
+      return kExitBadInput;
+    }
   }
   if (const std::string why = checkWritableDirectory("output directory", options.out); !why.empty()) {
     std::cerr << "xpersif_report: " << why << "\n";
@@ -154,9 +165,23 @@ struct Curves {
   std::vector<LearningCurve> curves;
   std::map<std::string, int> failed;
   std::size_t evaluation_size = 0;
+  std::vector<std::string> objects;      ///< the evaluation set's objects, in the order first pushed
+  std::vector<std::string> moving;       ///< the learnable ones that move when pushed (core::movingObjects)
+  std::vector<std::string> unlearnable;  ///< redrawn by the simulator before every push (--world)
 };
 
-Curves designCurves(KnowledgeBase& kb, const Runs& runs, const Options& options) {
+/// The objects of the world file whose properties the simulator redraws: nothing the loop sees predicts them.
+std::vector<std::string> unlearnableObjects(const std::string& world_file) {
+  std::vector<std::string> out;
+  if (world_file.empty()) return out;
+  for (const auto& object : loadWorldFile(world_file).objects) {
+    if (object.redrawn()) out.push_back(object.name);
+  }
+  return out;
+}
+
+Curves designCurves(KnowledgeBase& kb, const Runs& runs, const Options& options,
+                    const std::vector<std::string>& unlearnable) {
   std::vector<std::string> identities;
   const auto evaluation_records = kb.experiments(runs[options.evaluation].id, "done");
   for (const auto& r : evaluation_records) {
@@ -169,6 +194,16 @@ Curves designCurves(KnowledgeBase& kb, const Runs& runs, const Options& options)
   const auto evaluation = pushSamples(evaluation_records);
   Curves out;
   out.evaluation_size = evaluation.size();
+  out.unlearnable = unlearnable;
+  for (const auto& object : movingObjects(evaluation)) {
+    if (std::find(out.unlearnable.begin(), out.unlearnable.end(), object) == out.unlearnable.end()) {
+      out.moving.push_back(object);
+    }
+  }
+  for (const auto& sample : evaluation) {
+    const std::string& object = sample.input.experiment.object;
+    if (std::find(out.objects.begin(), out.objects.end(), object) == out.objects.end()) out.objects.push_back(object);
+  }
   for (const auto& name : options.designs) {
     const RunInfo& run = runs[name];
     // Only the designed experiments (seq 1..N, N from the run's parameters), not the goal-directed pushes
@@ -247,12 +282,58 @@ std::string drawLearningCurve(const std::string& csv, const std::string& png) {
   return "";
 }
 
-/// How many experiments each design needed to reach the error random design ends with.
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out;
+}
+
+/// The primary measure of doc/studies.md on this run's designs, and what one seed per design can and cannot say.
+void describeDesigns(const Curves& curves, std::ostream& md) {
+  md << "\n## Which design did better\n\n";
+  if (curves.moving.empty()) {
+    md << "No object of the evaluation set moved when pushed, so no design can be judged on it.\n";
+    return;
+  }
+  std::vector<std::string> still, unlearnable;
+  auto listed = [](const std::vector<std::string>& names, const std::string& name) {
+    return std::find(names.begin(), names.end(), name) != names.end();
+  };
+  for (const auto& object : curves.objects) {
+    if (listed(curves.unlearnable, object)) unlearnable.push_back(object);
+    else if (!listed(curves.moving, object)) still.push_back(object);
+  }
+  md << "Measured as studies measure it (doc/studies.md): the mean over the run of the log of the prediction error, "
+        "averaged with equal weight over the learnable objects that move when pushed (" << joined(curves.moving)
+     << (still.empty() ? "" : "; not counted: " + joined(still) + ", which did not move")
+     << (unlearnable.empty() ? "" : "; nor " + joined(unlearnable) + ", which the world redraws before every push")
+     << "). The geometric-mean error over the run, and its ratio to random design's:\n\n";
+  std::map<std::string, double> area;
+  for (const auto& c : curves.curves) area[c.name] = logArea(c.experiments, balancedError(c, curves.moving));
+  const bool has_random = area.count("random") > 0;
+  md << "| design | geometric-mean error (m) |" << (has_random ? " ratio to random |" : "") << "\n|---|---|"
+     << (has_random ? "---|" : "") << "\n";
+  std::string best;
+  for (const auto& c : curves.curves) {
+    md << "| " << c.name << " | " << std::setprecision(4) << std::exp(area[c.name]) << " |";
+    if (has_random) md << " " << std::setprecision(3) << std::exp(area[c.name] - area["random"]) << " |";
+    md << "\n";
+    if (best.empty() || area[c.name] < area[best]) best = c.name;
+  }
+  md << "\nLowest in this run: " << best << ". One seed per design cannot tell a design from chance: random design "
+        "on other seeds differs from itself too. Only a study over seeds with its null arm "
+        "(`bash scripts/study.sh --designs random,random_null,...`, doc/studies.md) can say whether a difference "
+        "is real.\n";
+}
+
+/// How many experiments each design needed to reach the error random design ends with (secondary: one crossing
+/// of two noisy curves; chance alone often gives "never").
 void describeReach(const std::vector<LearningCurve>& curves, std::ostream& md) {
   const auto random = std::find_if(curves.begin(), curves.end(), [](const LearningCurve& c) { return c.name == "random"; });
   if (random == curves.end() || random->error.empty()) return;
   const double target = random->error.back();
-  md << "\nRandom design ends at " << std::setprecision(4) << target << " m after " << random->experiments.back()
+  md << "\nSecondary, and as noisy as one seed makes it (where one curve first crosses the other's end point): "
+        "random design ends at " << std::setprecision(4) << target << " m after " << random->experiments.back()
      << " experiments.\n";
   for (const auto& c : curves) {
     if (c.name == "random") continue;
@@ -312,9 +393,9 @@ void describeGoals(KnowledgeBase& kb, const Runs& runs, const std::string& goals
 }
 
 /// The whole report as Markdown; the curve's CSV and PNG are written into options.out on the way.
-std::string buildReport(KnowledgeBase& kb, const Options& options) {
+std::string buildReport(KnowledgeBase& kb, const Options& options, const std::vector<std::string>& unlearnable) {
   const Runs runs(kb, options.database);
-  const Curves curves = designCurves(kb, runs, options);
+  const Curves curves = designCurves(kb, runs, options, unlearnable);
   std::ostringstream md;
   md << std::fixed;
   md << "# What the robot learned\n\nKnowledge base: `" << options.database << "`\n\n";
@@ -335,6 +416,7 @@ std::string buildReport(KnowledgeBase& kb, const Options& options) {
   for (const auto& c : curves.curves) {
     md << "- " << c.name << ": " << curves.failed.at(c.name) << " experiments failed (not learned from)\n";
   }
+  describeDesigns(curves, md);
   describeReach(curves.curves, md);
   describeFeatures(kb, runs, options, md);
   describeNotions(kb, runs, options, md);
@@ -349,8 +431,9 @@ int main(int argc, char** argv) {
   if (const auto done = parseArguments(argc, argv, options)) return *done;
   if (const int code = checkFiles(options); code != kExitOk) return code;
   try {
+    const auto unlearnable = unlearnableObjects(options.world);  // a bad world file is refused before any work
     auto kb = KnowledgeBase::open(options.database);
-    const std::string md = buildReport(*kb, options);
+    const std::string md = buildReport(*kb, options, unlearnable);
     std::ofstream report(options.out + "/report.md");
     report << md;
     if (!report) {
@@ -360,6 +443,9 @@ int main(int argc, char** argv) {
     std::cout << md;
   } catch (const KnowledgeBaseError& e) {
     std::cerr << "xpersif_report: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const WorldError& e) {
+    std::cerr << "xpersif_report: --world: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const std::exception& e) {
     std::cerr << "xpersif_report: " << e.what() << "\n";

@@ -75,6 +75,36 @@ TEST(Evaluation, ErrorFallsAsTheModelLearnsAndTheCurveFindsWhereItReachesAnError
   }
 }
 
+TEST(Evaluation, OnlyObjectsThatMoveAreWeighedAndEachEqually) {
+  auto push = [](const std::string& object, double distance, double dx, double dyaw) {
+    PushSample s;
+    s.input.experiment.object = object;
+    s.input.experiment.distance = distance;
+    s.outcome.dx = dx;
+    s.outcome.dyaw = dyaw;
+    return s;
+  };
+  std::vector<PushSample> evaluation;
+  for (int i = 0; i < 5; ++i) {
+    evaluation.push_back(push("block", 0.05, 0.0003, 0.001));  // 0.6 % + a turn of 0.02 mm: does not move
+    evaluation.push_back(push("cube", 0.05, 0.04, 0.1));
+    evaluation.push_back(push("bar", 0.04, 0.0, 0.3));  // turns only: 0.3 rad at 2 cm = 6 mm, 15 % of the push
+  }
+  EXPECT_EQ(movingObjects(evaluation), (std::vector<std::string>{"cube", "bar"}));
+  EXPECT_EQ(movingObjects(evaluation, 0.2), (std::vector<std::string>{"cube"}));
+
+  LearningCurve curve;
+  curve.experiments = {0, 10, 20};
+  curve.object_error = {{"cube", {0.04, 0.02, 0.01}}, {"bar", {0.02, 0.02, 0.01}}, {"block", {0.0, 0.0, 0.0}}};
+  const auto balanced = balancedError(curve, {"cube", "bar"});
+  EXPECT_NEAR(balanced[0], 0.03, 1e-12);
+  EXPECT_NEAR(balanced[2], 0.01, 1e-12);
+  // Constant error: the area is its log; log-linear from 0.04 to 0.01: the log of the geometric middle, 0.02.
+  EXPECT_NEAR(logArea({0, 20, 40}, {0.02, 0.02, 0.02}), std::log(0.02), 1e-12);
+  EXPECT_NEAR(logArea({0, 20, 40}, {0.04, 0.02, 0.01}), std::log(0.02), 1e-12);
+  EXPECT_TRUE(std::isnan(logArea({0, 1}, {0.1})));
+}
+
 TEST(Evaluation, RunParametersAreReadFromTheStoredJsonOrFallBack) {
   const std::string stored = R"({"experiments":32,"goals":5,"design":"random","goal_tolerance":0.02,"provenance":{}})";
   EXPECT_EQ(designedCount(stored), 32);

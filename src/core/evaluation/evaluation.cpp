@@ -96,6 +96,61 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
   return curve;
 }
 
+namespace {
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+}  // namespace
+
+std::vector<std::string> movingObjects(const std::vector<PushSample>& evaluation, double share) {
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> pushes;  // object -> (distances, travels)
+  std::vector<std::string> order;
+  for (const auto& s : evaluation) {
+    const std::string& object = s.input.experiment.object;
+    if (!pushes.count(object)) order.push_back(object);
+    pushes[object].first.push_back(std::abs(s.input.experiment.distance));
+    pushes[object].second.push_back(std::hypot(s.outcome.dx, s.outcome.dy) + kYawLength * std::abs(s.outcome.dyaw));
+  }
+  std::vector<std::string> moving;
+  for (const auto& object : order) {
+    const auto& [distances, travels] = pushes[object];
+    const double pushed = median(distances);
+    if (pushed > 0 && median(travels) >= share * pushed) moving.push_back(object);
+  }
+  return moving;
+}
+
+std::vector<double> balancedError(const LearningCurve& curve, const std::vector<std::string>& objects) {
+  std::vector<double> out;
+  for (std::size_t i = 0; i < curve.experiments.size(); ++i) {
+    double sum = 0;
+    int counted = 0;
+    for (const auto& object : objects) {
+      const auto it = curve.object_error.find(object);
+      if (it == curve.object_error.end() || i >= it->second.size()) continue;
+      sum += it->second[i];
+      ++counted;
+    }
+    out.push_back(counted ? sum / counted : NAN);
+  }
+  return out;
+}
+
+double logArea(const std::vector<int>& experiments, const std::vector<double>& error) {
+  if (experiments.empty() || experiments.size() != error.size()) return NAN;
+  auto logOf = [](double e) { return std::log(std::max(e, 1e-12)); };
+  if (experiments.size() == 1 || experiments.back() == experiments.front()) return logOf(error.front());
+  double area = 0;
+  for (std::size_t i = 1; i < experiments.size(); ++i) {
+    area += (experiments[i] - experiments[i - 1]) * 0.5 * (logOf(error[i - 1]) + logOf(error[i]));
+  }
+  return area / (experiments.back() - experiments.front());
+}
+
 int experimentsToReach(const LearningCurve& curve, double error) {
   for (std::size_t i = 0; i < curve.error.size(); ++i) {
     if (curve.error[i] <= error) return curve.experiments[i];

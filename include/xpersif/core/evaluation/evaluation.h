@@ -63,6 +63,18 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
                             const std::vector<PushSample>& evaluation, const PushLearnerConfig& config,
                             const std::vector<int>& checkpoints, LearnerScope scope = LearnerScope::Shared);
 
+/// The evaluation set's objects that move when pushed: those whose median travel (a turn counted at 2 cm) is at least
+/// `share` of their median push distance. An object that never moves is predicted by any model; weighing it in a
+/// measure only dilutes the differences between designs (the same rule as scripts/study_measures.py).
+std::vector<std::string> movingObjects(const std::vector<PushSample>& evaluation, double share = 0.1);
+
+/// The curve's error averaged with equal weight over @p objects, at each of its k (NAN where none has a point).
+std::vector<double> balancedError(const LearningCurve& curve, const std::vector<std::string>& objects);
+
+/// The mean of log(error) over the curve's span of k, by the trapezoid rule: the log of the curve's geometric-mean
+/// error over the budget. A design's ratio to another is exp(the difference of their areas).
+double logArea(const std::vector<int>& experiments, const std::vector<double>& error);
+
 /// The first k at which the curve is at or below @p error, or -1.
 int experimentsToReach(const LearningCurve& curve, double error);
 

@@ -32,9 +32,12 @@ struct Surprise {
   Outcome residual;  ///< outcome - prediction (dyaw wrapped)
 };
 
+/// m: a turn counts as the travel of a point this far from the object's centre (errors and travels in metres).
+constexpr double kYawLength = 0.02;
+
 /// Throws ValidationError for non-finite values, a negative std, or yaw_length <= 0. A zero std counts as
 /// 1e-9 (a model claiming certainty and being wrong is very surprised, not infinitely).
-Surprise surprise(const Prediction& prediction, const Outcome& outcome, double yaw_length = 0.02);
+Surprise surprise(const Prediction& prediction, const Outcome& outcome, double yaw_length = kYawLength);
 
 struct CuriosityConfig {
   std::vector<std::string> objects;                      ///< the objects the robot may push
