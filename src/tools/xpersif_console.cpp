@@ -28,6 +28,7 @@
 #include "xpersif/core/sim/physics_world.h"
 #include "xpersif/core/common/setup.h"
 #include "xpersif/core/common/validation.h"
+#include "xpersif/core/sim/world_generator.h"
 #include "xpersif/core/sim/world_spec.h"
 #include "xpersif/ComponentStatus.h"
 #include "xpersif/RunLoopAction.h"
@@ -351,6 +352,65 @@ int checkWorld(const std::string& file) {
   }
 }
 
+/// The package's file @p relative (e.g. urdf/khepera.urdf): an install space's (lib/xpersif/ -> share/xpersif/),
+/// else the source tree's this was built from.
+std::string packageFile(const std::string& relative) {
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto installed = exe.parent_path().parent_path().parent_path() / "share" / "xpersif" / relative;
+    if (std::filesystem::exists(installed, ec)) return installed.string();
+  }
+  return std::string(XPERSIF_SOURCE_DIR) + "/" + relative;
+}
+
+/// `xpersif generate-world`: a world drawn from a seed (core::generateWorld), checked as check-world checks it, into
+/// FILE (its robot's URDF path relative to it) or onto stdout (an absolute path).
+int generateWorldFile(xpersif::core::WorldGeneratorOptions options, const std::string& out) {
+  namespace fs = std::filesystem;
+  const fs::path urdf = fs::absolute(packageFile("urdf/khepera.urdf")).lexically_normal();
+  const fs::path dir = out.empty() ? fs::current_path() : fs::absolute(out).parent_path();
+  options.robot_urdf = out.empty() ? urdf.string() : urdf.lexically_relative(dir).string();
+  std::string text;
+  try {
+    text = xpersif::core::generateWorld(options);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "xpersif: generate-world: " << e.what() << "\n";
+    return xpersif::core::kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: " << e.what() << "\n";
+    return xpersif::core::kExitFailed;
+  }
+  try {  // the same checks as check-world: a generated world the loop could not run is a bug, said as one
+    const xpersif::core::PhysicsWorld world(xpersif::core::parseWorld(text, dir.string(), "the generated world"));
+    std::string problem = xpersif::core::checkDistinguishable(
+        xpersif::core::PerceptionCatalogue::fromScene(world.scene()));
+    if (problem.empty()) problem = xpersif::core::checkPerception(world.scene(), world.dynamicTransforms()).problem();
+    if (!problem.empty()) throw std::runtime_error(problem);
+  } catch (const std::exception& e) {
+    std::cerr << "xpersif: generate-world: the world drawn from seed " << options.seed << " fails its check: "
+              << e.what() << "\n";
+    return xpersif::core::kExitFailed;
+  }
+  if (out.empty()) {
+    std::cout << text;
+    return xpersif::core::kExitOk;
+  }
+  if (const std::string why = xpersif::core::checkWritableDirectory("output directory", dir.string()); !why.empty()) {
+    std::cerr << "xpersif: generate-world: " << why << "\n";
+    return xpersif::core::kExitOutput;
+  }
+  std::ofstream file(out);
+  file << text;
+  if (!file.flush()) {
+    std::cerr << "xpersif: generate-world: cannot write " << out << "\n";
+    return xpersif::core::kExitOutput;
+  }
+  std::cout << "xpersif: wrote " << fs::absolute(out).string() << " (" << options.objects << " objects, seed "
+            << options.seed << ")\n";
+  return xpersif::core::kExitOk;
+}
+
 /// `xpersif rerun`: experiment.launch pointed at the stored experiment, on the master of ROS_MASTER_URI (started
 /// by roslaunch when none runs there). The outcome is the runner's status file, since roslaunch exits 0 anyway.
 int rerun(std::string old_dir, std::string new_dir, const std::vector<std::string>& overrides) {
@@ -413,7 +473,8 @@ struct Request {
   double timeout = -1;  // s; -1: the command's default
   std::vector<std::string> components;  // wait
   std::string component, contract;      // transitions, contracts
-  std::string file;                     // check-world
+  std::string file;                     // check-world, generate-world --out
+  xpersif::core::WorldGeneratorOptions world;  // generate-world
   std::string run_dir, new_run_dir;     // rerun
   std::vector<std::string> overrides;   // rerun KEY=VALUE
   xpersif::RunLoopGoal goal;            // run
@@ -445,6 +506,26 @@ void addCommands(CLI::App& app, Request& r) {
                                     "and the limits derived from them; exit 3 with the reason")
       ->add_option("FILE", r.file, "the world file")
       ->required();
+  auto* generate = app.add_subcommand("generate-world", "write a world drawn from a seed: an arena and objects in "
+                                                       "roles (light, elongated, immovable, redrawn), checked as "
+                                                       "check-world checks it (doc/worlds.md)");
+  generate->add_option("--seed", r.world.seed, "the seed: the same seed gives the same world")
+      ->check(xpersif::tools::wholeNumber(0, UINT32_MAX))
+      ->required();
+  generate->add_option("--objects", r.world.objects, "how many objects")
+      ->check(xpersif::tools::wholeNumber(1, 8))
+      ->capture_default_str();
+  generate->add_option_function<std::string>(
+      "--roles",
+      [&r](const std::string& value) {
+        std::stringstream in(value);
+        for (std::string role; std::getline(in, role, ',');) {
+          if (!role.empty()) r.world.roles.push_back(role);
+        }
+        if (r.world.roles.empty()) throw CLI::ValidationError("--roles", "names no role");
+      },
+      "the roles objects are drawn from, comma-separated (default: all four, each once while there are objects)");
+  generate->add_option("--out", r.file, "the world file to write (default: standard output)");
   auto* rerun = app.add_subcommand("rerun", "repeat the experiment of a run directory from what it stored, through "
                                             "`roslaunch xpersif experiment.launch`; exit status: the experiment's");
   rerun->add_option("RUN_DIR", r.run_dir, "a run directory of an experiment file's run")->required();
@@ -548,8 +629,8 @@ std::vector<std::string> wordsOf(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
-  CLI::App app("The console client of a running XPERSIF system (doc/console.md); check-world and rerun work "
-               "without one.",
+  CLI::App app("The console client of a running XPERSIF system (doc/console.md); check-world, generate-world and "
+               "rerun work without one.",
                "xpersif");
   xpersif::tools::describe(app, xpersif::tools::exitCodes("done", "the command failed or the system did not answer") +
                                     " `run` and `rerun` exit with the run's outcome (0 done; 5 it stopped on a cause that "
@@ -562,6 +643,7 @@ int main(int argc, char** argv) {
   if (const int code = checkRequest(request); code != xpersif::core::kExitOk) return code;
   const std::string command = request.command->get_name();
   if (command == "check-world") return checkWorld(request.file);
+  if (command == "generate-world") return generateWorldFile(request.world, request.file);
   if (command == "rerun") return rerun(request.run_dir, request.new_run_dir, request.overrides);
   return runOnSystem(argc, argv, request);
 }

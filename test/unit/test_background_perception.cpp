@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
 #include <string>
@@ -17,6 +18,7 @@
 #include "xpersif/core/perception/perception_check.h"
 #include "xpersif/core/render/renderer.h"
 #include "xpersif/core/sim/physics_world.h"
+#include "xpersif/core/sim/world_generator.h"
 #include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
@@ -152,6 +154,52 @@ TEST(PerceptionCheck, EveryShippedWorldCanBePerceivedAtTheStart) {
     EXPECT_TRUE(downward) << check.describe();
   }
   EXPECT_GE(worlds, 5);
+}
+
+// Generated worlds (`xpersif generate-world`): every seed and count parses, every object is told apart and found by
+// the cameras at the start, and the same options give the same file.
+TEST(WorldGenerator, EveryGeneratedWorldCanBePerceivedAtTheStart) {
+  const std::string urdf = std::string(XPERSIF_SOURCE_DIR) + "/urdf/khepera.urdf";
+  std::map<std::string, int> roles;
+  for (std::uint32_t seed = 1; seed <= 160; ++seed) {
+    WorldGeneratorOptions options;
+    options.seed = seed;
+    options.objects = 1 + static_cast<int>(seed % 8);
+    options.robot_urdf = urdf;
+    const std::string text = generateWorld(options);
+    SCOPED_TRACE(text);
+    EXPECT_EQ(generateWorld(options), text);
+    const WorldSpec spec = parseWorld(text, "/", "generated");
+    ASSERT_EQ(static_cast<int>(spec.objects.size()), options.objects);
+    for (const auto& o : spec.objects) roles[o.redrawn() ? "redrawn" : o.mass > 1 ? "immovable" : "movable"]++;
+    const PhysicsWorld world(spec);
+    EXPECT_EQ(checkDistinguishable(PerceptionCatalogue::fromScene(world.scene())), "");
+    const PerceptionCheck check = checkPerception(world.scene(), world.dynamicTransforms());
+    EXPECT_EQ(check.problem(), "") << check.describe();
+  }
+  EXPECT_GT(roles["redrawn"], 0);
+  EXPECT_GT(roles["immovable"], 0);
+  EXPECT_GT(roles["movable"], 0);
+}
+
+TEST(WorldGenerator, RolesAndCountsOutOfRangeAreRefusedWithTheReason) {
+  WorldGeneratorOptions options;
+  options.robot_urdf = "khepera.urdf";
+  options.objects = 9;
+  EXPECT_THROW(generateWorld(options), std::invalid_argument);
+  options.objects = 3;
+  options.roles = {"light", "floating"};
+  try {
+    generateWorld(options);
+    ADD_FAILURE() << "an unknown role was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'floating' is not a role"), std::string::npos) << e.what();
+  }
+  options.roles = {"immovable"};
+  const WorldSpec spec = parseWorld(
+      [&] { options.robot_urdf = std::string(XPERSIF_SOURCE_DIR) + "/urdf/khepera.urdf"; return generateWorld(options); }(),
+      "/", "generated");
+  for (const auto& o : spec.objects) EXPECT_GT(o.mass, 1.0) << o.name;  // only the roles asked for
 }
 
 // An object the colour of the floor: refused, naming it and the cause (it looks like the floor), not a timeout.
