@@ -11,6 +11,7 @@
 #include "xpersif/core/planning/learning_progress.h"
 #include "xpersif/core/learning/per_object_push_model.h"
 #include "xpersif/core/planning/plan_search.h"
+#include "xpersif/core/planning/strategic_student.h"
 #include "xpersif/core/learning/push_learner.h"
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::PushLearner, xpersif::core::PushModel)
@@ -22,6 +23,8 @@ PLUGINLIB_EXPORT_CLASS(xpersif::core::RandomDesign, xpersif::core::ExperimentDes
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GridDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::LearningProgressDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::ErrorMaxDesign, xpersif::core::ExperimentDesign)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::StrategicStudentDesign, xpersif::core::ExperimentDesign)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::RoundRobinDesign, xpersif::core::ExperimentDesign)
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::BreadthFirstSearch, xpersif::core::PlanSearch)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GreedyGoalCountSearch, xpersif::core::PlanSearch)

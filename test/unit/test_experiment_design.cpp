@@ -2,10 +2,12 @@
 
 #include "xpersif/core/planning/experiment_design.h"
 #include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/planning/strategic_student.h"
 #include "xpersif/core/common/random_stream.h"
 #include "xpersif/core/common/validation.h"
 
 #include <cmath>
+#include <random>
 #include <map>
 #include <set>
 #include <tuple>
@@ -452,6 +454,8 @@ TEST(ExperimentDesign, InitializeRestartsFromTheSeed) {
     if (name == "curiosity") plugin = std::make_unique<CuriosityDesign>();
     if (name == "learning_progress") plugin = std::make_unique<LearningProgressDesign>();
     if (name == "error_max") plugin = std::make_unique<ErrorMaxDesign>();
+    if (name == "strategic_student") plugin = std::make_unique<StrategicStudentDesign>();
+    if (name == "round_robin") plugin = std::make_unique<RoundRobinDesign>();
     ASSERT_TRUE(plugin) << name;
     plugin->initialize(11, options);
     const auto expected = run(*made, c, 12);
@@ -473,4 +477,86 @@ TEST(ExperimentDesign, InitializeWithBadOptionsKeepsTheOldOnes) {
   EXPECT_THROW(design.initialize(3, bad), ValidationError);
   const ExperimentChoice choice = design.next(c);
   EXPECT_GE(choice.distance, DesignOptions().min_distance);
+}
+
+// ---- object-level designs (issue 38) ----------------------------------------------------------------------
+
+TEST(StrategicStudent, TheCurveFitSeesProgressOnlyWhereTheErrorFalls) {
+  std::vector<double> falling, flat, still, noisy;
+  std::mt19937 rng(3);
+  std::lognormal_distribution<double> noise(0.0, 0.6);
+  for (int n = 1; n <= 20; ++n) {
+    falling.push_back(0.03 * std::pow(n, -0.5));
+    flat.push_back(0.02 * noise(rng));  // an unlearnable object: big errors that do not fall
+    still.push_back(0.0);               // an object that never moves: predicted exactly
+  }
+  const auto f = fitObjectCurve(falling);
+  EXPECT_NEAR(f.b, -0.5, 0.1);
+  EXPECT_GT(f.progress, 0.0);
+  EXPECT_EQ(fitObjectCurve(still).progress, 0.0);
+  EXPECT_EQ(fitObjectCurve(flat).progress, 0.0) << "slope " << fitObjectCurve(flat).b << " +- " << fitObjectCurve(flat).b_se;
+  EXPECT_EQ(fitObjectCurve({0.03, 0.02}).progress, 0.0);  // too few pushes to fit
+  EXPECT_THROW(fitObjectCurve({0.03, NAN, 0.01}), ValidationError);
+}
+
+TEST(StrategicStudent, RoundRobinFirstThenTheObjectsThatProgress) {
+  StrategicStudentDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  // Warm-up: the objects in turn, three rounds.
+  for (std::size_t i = 0; i < kWarmupPushes * c.objects.size(); ++i) {
+    c.history_count = i;
+    EXPECT_EQ(design.next(c).object, c.objects[i % c.objects.size()].name) << i;
+  }
+  // Then: red learns (its error falls), green never moves, yellow and blue are noise.
+  std::mt19937 rng(5);
+  std::lognormal_distribution<double> noise(0.0, 0.6);
+  for (int n = 1; n <= 12; ++n) {
+    c.history.push_back({"red_cube", "-x", 0, 0.05, 0.04 * std::pow(n, -0.6)});
+    c.history.push_back({"green_cube", "-x", 0, 0.05, 0.0});
+    c.history.push_back({"yellow_cube", "-x", 0, 0.05, 0.02 * noise(rng)});
+    c.history.push_back({"blue_cube", "-x", 0, 0.05, 0.02 * noise(rng)});
+  }
+  c.history_count = c.history.size();
+  const auto p = design.probabilities(c);
+  EXPECT_NEAR(p.at("red_cube") + p.at("green_cube") + p.at("yellow_cube") + p.at("blue_cube"), 1.0, 1e-12);
+  EXPECT_NEAR(p.at("green_cube"), 0.2 / 4, 1e-12);  // the floor only
+  EXPECT_GT(p.at("red_cube"), 0.5);
+  std::map<std::string, int> chosen;
+  for (int i = 0; i < 400; ++i) chosen[design.next(c).object]++;
+  EXPECT_GT(chosen["red_cube"], 200);
+  EXPECT_GT(chosen["green_cube"], 0);  // the floor keeps every object in play
+}
+
+TEST(StrategicStudent, AStreamGivesTheSameChoiceAndUnreachableObjectsAreNeverChosen) {
+  DesignContext c = cubes();
+  c.history_count = 40;
+  for (int n = 1; n <= 10; ++n) c.history.push_back({"red_cube", "+y", 0, 0.05, 0.03 / n});
+  c.stream = 1234;
+  StrategicStudentDesign a(1, DesignOptions{}), b(99, DesignOptions{});
+  EXPECT_TRUE(same(a.next(c), b.next(c)));  // a resumed run chooses as the uninterrupted one
+  c.objects[0].reachable = false;           // red, the one that progresses, is against a wall now
+  c.stream.reset();
+  for (int i = 0; i < 50; ++i) EXPECT_NE(a.next(c).object, "red_cube");
+  for (auto& o : c.objects) o.reachable = false;
+  EXPECT_THROW(a.next(c), ValidationError);
+}
+
+TEST(RoundRobin, EveryObjectInTurnAndARandomPushOnIt) {
+  RoundRobinDesign design(3, DesignOptions{});
+  DesignContext c = cubes();
+  c.objects[2].reachable = false;  // yellow's turn goes to the next reachable object
+  std::map<std::string, int> counts;
+  std::set<double> distances;
+  for (std::size_t i = 0; i < 8; ++i) {
+    c.history_count = i;
+    const auto choice = design.next(c);
+    counts[choice.object]++;
+    distances.insert(choice.distance);
+  }
+  EXPECT_EQ(counts["red_cube"], 2);
+  EXPECT_EQ(counts["green_cube"], 2);
+  EXPECT_EQ(counts["yellow_cube"], 0);
+  EXPECT_EQ(counts["blue_cube"], 4);
+  EXPECT_EQ(distances.size(), 8u);  // pushes drawn at random, not a grid
+  EXPECT_EQ(makeDesign("round_robin", 3)->next(c).object, makeDesign("round_robin", 4)->next(c).object);
 }

@@ -5,6 +5,7 @@
 #include "xpersif/core/planning/experiment_design.h"
 
 #include "xpersif/core/planning/learning_progress.h"
+#include "xpersif/core/planning/strategic_student.h"
 #include "xpersif/core/common/validation.h"
 
 #include <cmath>
@@ -17,7 +18,8 @@ namespace {
 
 std::string metres(double v) { return describeNumber(v) + " m"; }
 
-/// The reachable objects; throws ValidationError (and so changes nothing) when there are none.
+}  // namespace
+
 std::vector<DesignObject> reachableObjects(const DesignContext& context) {
   if (context.objects.empty()) {
     throw ValidationError("context.objects is empty; there is no object to design an experiment for");
@@ -42,7 +44,7 @@ std::vector<DesignObject> reachableObjects(const DesignContext& context) {
   return names;
 }
 
-ExperimentChoice sample(std::mt19937_64& rng, const std::vector<DesignObject>& objects, const DesignOptions& o) {
+ExperimentChoice uniformPush(std::mt19937_64& rng, const std::vector<DesignObject>& objects, const DesignOptions& o) {
   ExperimentChoice c;
   const DesignObject& object = objects[std::uniform_int_distribution<std::size_t>(0, objects.size() - 1)(rng)];
   c.object = object.name;
@@ -52,8 +54,6 @@ ExperimentChoice sample(std::mt19937_64& rng, const std::vector<DesignObject>& o
   c.distance = std::uniform_real_distribution<double>(o.min_distance, o.max_distance)(rng);
   return c;
 }
-
-}  // namespace
 
 std::optional<ExperimentChoice> drawFeasible(const DesignContext& context,
                                              const std::function<ExperimentChoice()>& draw, int* refused) {
@@ -136,7 +136,7 @@ ExperimentChoice RandomDesign::next(const DesignContext& context) {
   if (context.stream) rng_.seed(*context.stream);
   int refused = 0;
   ExperimentChoice last;
-  const auto found = drawFeasible(context, [&] { return last = sample(rng_, objects, options_); }, &refused);
+  const auto found = drawFeasible(context, [&] { return last = uniformPush(rng_, objects, options_); }, &refused);
   ExperimentChoice c = found ? *found : last;
   c.rationale = "random" + refusedNote(refused, found.has_value());
   return c;
@@ -220,7 +220,7 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
   bool all_found = true;
   for (std::size_t i = 0; i < options_.candidates; ++i) {
     ExperimentChoice last;
-    const auto found = drawFeasible(context, [&] { return last = sample(rng, objects, options_); }, &refused);
+    const auto found = drawFeasible(context, [&] { return last = uniformPush(rng, objects, options_); }, &refused);
     candidates.push_back(found ? *found : last);
     all_found = all_found && found.has_value();
   }
@@ -263,7 +263,9 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
 
 // ---- factory ----------------------------------------------------------------------------------------------
 
-std::vector<std::string> designNames() { return {"curiosity", "random", "grid", "learning_progress", "error_max"}; }
+std::vector<std::string> designNames() {
+  return {"curiosity", "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin"};
+}
 
 std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
                                              const DesignOptions& options) {
@@ -272,6 +274,8 @@ std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned l
   if (name == "random") return std::make_unique<RandomDesign>(seed, options);
   if (name == "learning_progress") return std::make_unique<LearningProgressDesign>(seed, options);
   if (name == "error_max") return std::make_unique<ErrorMaxDesign>(seed, options);
+  if (name == "strategic_student") return std::make_unique<StrategicStudentDesign>(seed, options);
+  if (name == "round_robin") return std::make_unique<RoundRobinDesign>(seed, options);
   return std::make_unique<GridDesign>(options);
 }
 

@@ -81,6 +81,17 @@ std::optional<ExperimentChoice> drawFeasible(const DesignContext& context,
 /// or (@p found false) that none was feasible, so that the choice will be refused.
 std::string refusedNote(int refused, bool found);
 
+struct DesignOptions;
+
+/// The context's reachable objects (their names checked, unique); throws ValidationError (and so changes nothing)
+/// when there are none.
+std::vector<DesignObject> reachableObjects(const DesignContext& context);
+
+/// A push drawn uniformly on one of @p objects: a side, an offset (a fraction of that face's limit) and a distance
+/// within the options' bounds.
+ExperimentChoice uniformPush(std::mt19937_64& rng, const std::vector<DesignObject>& objects,
+                             const DesignOptions& options);
+
 /// Offsets are fractions in [-1, 1] of each pushed face's offset limit (maxPushOffset, footprint.h), so one
 /// set of options fits objects of every shape and size; distances are metres, normally the set-up's
 /// (SetupCatalogue::minPushDistance / maxPushDistance).
@@ -193,7 +204,7 @@ class CuriosityDesign : public ExperimentDesign {
 };
 
 /// The designs of this package under the names experiment_design_plugins.xml gives them ("curiosity",
-/// "random", "grid", "learning_progress", "error_max"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
+/// "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
 /// through pluginlib, which also finds other packages' designs.
 std::vector<std::string> designNames();
 

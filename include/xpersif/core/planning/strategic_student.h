@@ -1,0 +1,78 @@
+/**
+ * @file strategic_student.h
+ * @brief Object-level designs (issue 38): the "strategic student" of Lopes & Oudeyer (2012), which chooses which
+ *        object to practise as a bandit over objects scored by their learning progress, and round robin, which
+ *        gives every object the same share and so shows what the variance of an allocation costs.
+ *
+ * Both choose an object, then a push drawn uniformly on it (side, offset, distance: uniformPush), so that the only
+ * difference from random design is how the budget is shared among the objects.
+ *
+ * The strategic student ("strategic_student"):
+ *  - first kWarmupPushes rounds of round robin over the objects (every object gets a few pushes);
+ *  - then each object's learning progress from a learning curve fitted to the held-out errors of all its pushes
+ *    (history: the error of each push's prediction, made before the push by the model of all the pushes before it,
+ *    so an out-of-sample error): log(error + 1 mm) = a + b log(n) by least squares over the object's n-th pushes.
+ *    Its progress is what one more push is expected to take off the error, e^a (n^b' - (n+1)^b'), with the slope
+ *    b' = b + its standard error (only the part of the fall that noise rarely gives), and 0 when b' >= 0: an object
+ *    that never moves (its error stays near 0) or that nothing predicts (its error does not fall) scores 0;
+ *  - the object is drawn in proportion to progress, with a floor: probability random_share / K for each of the K
+ *    reachable objects plus (1 - random_share) times its share of the progress (uniform when none progresses).
+ * Being stateless between choices (everything comes from the context's history and stream), a resumed run chooses
+ * as the uninterrupted one.
+ *
+ * Round robin ("round_robin"): the reachable objects in turn, by the number of experiments done so far.
+ */
+#pragma once
+
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "xpersif/core/planning/experiment_design.h"
+
+namespace xpersif::core {
+
+/// Round-robin pushes per object before the strategic student scores progress.
+constexpr std::size_t kWarmupPushes = 3;
+
+/// An object's learning curve fitted to its held-out errors in order: log(error + floor) = a + b log(n).
+struct ObjectCurveFit {
+  std::size_t pushes = 0;
+  double a = 0, b = 0, b_se = 0;  ///< intercept, slope and the slope's standard error (0 below 3 pushes)
+  /// What one more push is expected to take off the error (m), with the slope made conservative by one standard
+  /// error; 0 when that slope does not fall.
+  double progress = 0;
+};
+
+/// The fit of @p errors (held-out errors of an object's pushes, in order).
+ObjectCurveFit fitObjectCurve(const std::vector<double>& errors);
+
+class StrategicStudentDesign : public ExperimentDesign {
+ public:
+  StrategicStudentDesign() = default;
+  StrategicStudentDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
+  void initialize(unsigned long seed, const DesignOptions& options) override;
+  ExperimentChoice next(const DesignContext& context) override;
+  bool usesHistory() const override { return true; }
+  /// Each reachable object's probability of being chosen after the warm-up (for rationales and tests).
+  std::map<std::string, double> probabilities(const DesignContext& context) const;
+
+ private:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+};
+
+class RoundRobinDesign : public ExperimentDesign {
+ public:
+  RoundRobinDesign() = default;
+  RoundRobinDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
+  void initialize(unsigned long seed, const DesignOptions& options) override;
+  ExperimentChoice next(const DesignContext& context) override;
+
+ private:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+};
+
+}  // namespace xpersif::core

@@ -1,0 +1,131 @@
+#include "xpersif/core/planning/strategic_student.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "xpersif/core/common/validation.h"
+
+namespace xpersif::core {
+
+namespace {
+
+constexpr double kErrorFloor = 0.001;  // m: errors near 0 (an object that never moves) stay finite in the log
+
+/// The reachable object at the round-robin turn @p turn: the turn-th of the context's objects, or the next
+/// reachable one after it.
+const DesignObject& roundRobinObject(const DesignContext& context, std::size_t turn) {
+  const std::size_t n = context.objects.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& object = context.objects[(turn + k) % n];
+    if (object.reachable) return object;
+  }
+  throw ValidationError("none of the objects is reachable; there is nothing to push now");
+}
+
+/// A feasible push on @p object, else on any reachable object, else the last draw (which the planner will refuse).
+ExperimentChoice pushOn(const DesignObject& object, const std::vector<DesignObject>& reachable,
+                        const DesignContext& context, const DesignOptions& options, std::mt19937_64& rng,
+                        const std::string& why) {
+  int refused = 0;
+  ExperimentChoice last;
+  auto found = drawFeasible(context, [&] { return last = uniformPush(rng, {object}, options); }, &refused);
+  if (!found) found = drawFeasible(context, [&] { return last = uniformPush(rng, reachable, options); }, &refused);
+  ExperimentChoice c = found ? *found : last;
+  c.rationale = why + (found && c.object != object.name ? " (no feasible push on " + object.name + ")" : "") +
+                refusedNote(refused, found.has_value());
+  return c;
+}
+
+}  // namespace
+
+ObjectCurveFit fitObjectCurve(const std::vector<double>& errors) {
+  ObjectCurveFit fit;
+  fit.pushes = errors.size();
+  const std::size_t n = errors.size();
+  if (n < 3) return fit;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  std::vector<double> xs, ys;
+  for (std::size_t i = 0; i < n; ++i) {
+    requireFinite("errors[" + std::to_string(i) + "]", errors[i]);
+    const double x = std::log(static_cast<double>(i + 1)), y = std::log(std::max(errors[i], 0.0) + kErrorFloor);
+    xs.push_back(x);
+    ys.push_back(y);
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  const double mean_x = sx / n, sxx_c = sxx - n * mean_x * mean_x;
+  if (sxx_c <= 0) return fit;
+  fit.b = (sxy - n * mean_x * (sy / n)) / sxx_c;
+  fit.a = sy / n - fit.b * mean_x;
+  double residuals = 0;
+  for (std::size_t i = 0; i < n; ++i) residuals += std::pow(ys[i] - fit.a - fit.b * xs[i], 2);
+  fit.b_se = std::sqrt(residuals / (n - 2) / sxx_c);
+  const double slope = fit.b + fit.b_se;
+  if (slope < 0) {
+    fit.progress = std::exp(fit.a) * (std::pow(static_cast<double>(n), slope) - std::pow(n + 1.0, slope));
+  }
+  return fit;
+}
+
+// ---- the strategic student ------------------------------------------------------------------------------
+
+void StrategicStudentDesign::initialize(unsigned long seed, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  rng_.seed(seed);
+}
+
+std::map<std::string, double> StrategicStudentDesign::probabilities(const DesignContext& context) const {
+  const auto reachable = reachableObjects(context);
+  std::map<std::string, std::vector<double>> errors;
+  for (const auto& past : context.history) errors[past.object].push_back(past.error);
+  std::map<std::string, double> progress;
+  double total = 0;
+  for (const auto& object : reachable) total += progress[object.name] = fitObjectCurve(errors[object.name]).progress;
+  std::map<std::string, double> p;
+  const double k = static_cast<double>(reachable.size()), floor = options_.random_share;
+  for (const auto& object : reachable) {
+    p[object.name] = total > 0 ? floor / k + (1 - floor) * progress[object.name] / total : 1 / k;
+  }
+  return p;
+}
+
+ExperimentChoice StrategicStudentDesign::next(const DesignContext& context) {
+  const auto reachable = reachableObjects(context);
+  if (context.stream) rng_.seed(*context.stream);
+  if (context.history_count < kWarmupPushes * context.objects.size()) {
+    const auto& object = roundRobinObject(context, context.history_count);
+    return pushOn(object, reachable, context, options_, rng_,
+                  "strategic student: round robin, " + std::to_string(context.history_count + 1) + " of " +
+                      std::to_string(kWarmupPushes * context.objects.size()));
+  }
+  const auto p = probabilities(context);
+  std::vector<double> weights;
+  for (const auto& object : reachable) weights.push_back(p.at(object.name));
+  const std::size_t i = std::discrete_distribution<std::size_t>(weights.begin(), weights.end())(rng_);
+  std::ostringstream why;
+  why << "strategic student: " << reachable[i].name << " with probability " << std::setprecision(2)
+      << p.at(reachable[i].name);
+  return pushOn(reachable[i], reachable, context, options_, rng_, why.str());
+}
+
+// ---- round robin ----------------------------------------------------------------------------------------
+
+void RoundRobinDesign::initialize(unsigned long seed, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  rng_.seed(seed);
+}
+
+ExperimentChoice RoundRobinDesign::next(const DesignContext& context) {
+  const auto reachable = reachableObjects(context);
+  if (context.stream) rng_.seed(*context.stream);
+  const auto& object = roundRobinObject(context, context.history_count);
+  return pushOn(object, reachable, context, options_, rng_,
+                "round robin: turn " + std::to_string(context.history_count + 1));
+}
+
+}  // namespace xpersif::core
