@@ -494,6 +494,12 @@ TEST(StrategicStudent, TheCurveFitSeesProgressOnlyWhereTheErrorFalls) {
   EXPECT_NEAR(f.b, -0.5, 0.1);
   EXPECT_GT(f.progress, 0.0);
   EXPECT_EQ(fitObjectCurve(still).progress, 0.0);
+  // A trivial object: two large errors before the model knew it, then none. The fitted power law falls steeply,
+  // but nothing is left to learn: its progress is far below the learnable object's.
+  std::vector<double> trivial{0.03, 0.02};
+  for (int n = 3; n <= 20; ++n) trivial.push_back(0.0002);
+  EXPECT_LT(fitObjectCurve(trivial).b, -0.5);
+  EXPECT_LT(fitObjectCurve(trivial).progress, 0.05 * f.progress);
   EXPECT_EQ(fitObjectCurve(flat).progress, 0.0) << "slope " << fitObjectCurve(flat).b << " +- " << fitObjectCurve(flat).b_se;
   EXPECT_EQ(fitObjectCurve({0.03, 0.02}).progress, 0.0);  // too few pushes to fit
   EXPECT_THROW(fitObjectCurve({0.03, NAN, 0.01}), ValidationError);

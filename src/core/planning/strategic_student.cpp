@@ -1,5 +1,6 @@
 #include "xpersif/core/planning/strategic_student.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -11,6 +12,7 @@ namespace xpersif::core {
 namespace {
 
 constexpr double kErrorFloor = 0.001;  // m: errors near 0 (an object that never moves) stay finite in the log
+constexpr std::size_t kRecentErrors = 5;  // the object's last errors, whose mean is the level progress falls from
 
 /// The reachable object at the round-robin turn @p turn: the turn-th of the context's objects, or the next
 /// reachable one after it.
@@ -63,10 +65,14 @@ ObjectCurveFit fitObjectCurve(const std::vector<double>& errors) {
   double residuals = 0;
   for (std::size_t i = 0; i < n; ++i) residuals += std::pow(ys[i] - fit.a - fit.b * xs[i], 2);
   fit.b_se = std::sqrt(residuals / (n - 2) / sxx_c);
+  // The curve gives the rate (a power law falls by the factor ((n + 1) / n)^b per push); the level it falls from is
+  // the object's recent errors, not the fit's: a power law through a few large first errors and then zeros (an
+  // object that never moves, once the model knows it) would promise a long tail of progress that is not there.
   const double slope = fit.b + fit.b_se;
-  if (slope < 0) {
-    fit.progress = std::exp(fit.a) * (std::pow(static_cast<double>(n), slope) - std::pow(n + 1.0, slope));
-  }
+  const std::size_t recent = std::min<std::size_t>(n, kRecentErrors);
+  double level = 0;
+  for (std::size_t i = n - recent; i < n; ++i) level += std::max(errors[i], 0.0) / recent;
+  if (slope < 0) fit.progress = level * (1 - std::pow((n + 1.0) / n, slope));
   return fit;
 }
 
