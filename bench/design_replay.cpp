@@ -185,6 +185,15 @@ int main(int argc, char** argv) {
       }
       std::cout << "\n";
     }
+    // The study's primary measure (doc/studies.md): the area under the log of the error averaged with equal weight
+    // over the evaluation objects that move, and a design's ratio to random.
+    const std::vector<std::string> moving = movingObjects(evaluation);
+    std::map<std::string, double> area;
+    for (const auto& name : designs) {
+      for (const auto& c : campaigns[name]) area[name] += logArea(c.curve.experiments, balancedError(c.curve, moving)) / seeds;
+    }
+    std::cout << std::setprecision(3) << "area ratio to random (objects that move, weighed equally): "
+              << std::exp(area[design_name] - area["random"]) << "\n";
     std::vector<double> reach;
     int never = 0;
     for (int s = 0; s < seeds; ++s) {
