@@ -63,8 +63,13 @@ manager_pids() {  # manager_pids M1+M2: the pids of those managers of this take'
 }
 
 interrupt() {  # interrupt NAME kill:M1+M2|stop:M1+M2: SIGKILL them, or SIGSTOP them for 3 s (3 heartbeat timeouts)
-  local name=$1 how=${2%%:*} managers=${2#*:} pids
-  pids=$(manager_pids "$managers") || exit 1
+  local name=$1 how=${2%%:*} managers=${2#*:} pids tries=0
+  # A manager killed a moment ago may not be back yet (roslaunch respawns it): wait up to 15 s for it.
+  until pids=$(manager_pids "$managers" 2>/dev/null); do
+    tries=$((tries + 1))
+    [ "$tries" -lt 75 ] || { manager_pids "$managers"; exit 1; }
+    sleep 0.2
+  done
   if [ "$how" = stop ]; then
     kill -STOP $pids
     sleep 3
