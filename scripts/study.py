@@ -265,9 +265,9 @@ def evaluation_rows(evaluation):
         con.close()
 
 
-def moving_from(evaluation, eval_objects):
-    rows = [dict(zip(("seq", "object", "side", "offset", "distance", "dx", "dy", "dyaw"), r))
-            for r in evaluation_rows(evaluation)]
+def moving_from(ev_rows, eval_objects):
+    """The learnable objects that move, and their travel shares, from the evaluation set's rows (evaluation_rows)."""
+    rows = [dict(zip(("seq", "object", "side", "offset", "distance", "dx", "dy", "dyaw"), r)) for r in ev_rows]
     return study_measures.moving_objects(rows, eval_objects)
 
 
@@ -395,6 +395,7 @@ def run_cells(args, cells):
               file=sys.stderr)
     progress = Progress(total, skipped)
     running, failed = [], []
+    moving_cache = None  # the oracle's objects (moving_from), once the evaluation set is done
     need_curve = [c for c in todo if c is not evaluation]
     queue = list(todo)
     # Cells whose run finished before the evaluation set: their curves wait for it.
@@ -416,7 +417,9 @@ def run_cells(args, cells):
                 cell = ready[0]
                 queue.remove(cell)
                 if cell.waits_for_evaluation:
-                    moving = moving_from(evaluation, args.eval_objects)[0] if evaluation in finished_cells else []
+                    if evaluation in finished_cells and moving_cache is None:  # read once, when the set is done
+                        moving_cache = moving_from(evaluation_rows(evaluation), args.eval_objects)[0]
+                    moving = moving_cache if evaluation in finished_cells else []
                     if not moving:
                         cell.outcome = (1, "the oracle has nothing to push: %s" % (
                             "no evaluation object moved in the evaluation set" if evaluation in finished_cells else
@@ -824,7 +827,7 @@ def report(args, cells, eval_objects, eval_why):
         w.writerows(test_rows)
 
     plots(out, designs, curve_rows, share_rows, objects)
-    moving, move_shares = moving_from(evaluation, eval_objects)
+    moving, move_shares = moving_from(ev_rows, eval_objects)
     measured = measures_files(out, data, moving, args.budget)
 
     # report.md
