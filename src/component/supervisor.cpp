@@ -10,6 +10,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <future>
+#include <memory>
+#include <thread>
 #include <set>
 #include <stdexcept>
 
@@ -18,6 +21,37 @@ namespace xpersif {
 namespace {
 
 double wallNow() { return ros::WallTime::now().toSec(); }
+
+enum class CallOutcome { Answered, Failed, NoAnswer };
+
+// roscpp's service calls have no timeout: a component whose transition never returns (its callback blocked: seen with
+// RELOCATION's configure waiting for a service whose queue was pinned to the same thread) would hold the bring-up for
+// good. The call runs in a thread of its own, which is left behind if no answer comes within @p seconds.
+CallOutcome callWithin(const std::string& service, Transition& call, double seconds) {
+  struct Pending {
+    Transition call;
+    std::promise<bool> answered;
+  };
+  auto pending = std::make_shared<Pending>();
+  pending->call = call;
+  std::future<bool> answer = pending->answered.get_future();
+  std::thread([pending, service] { pending->answered.set_value(ros::service::call(service, pending->call)); }).detach();
+  if (answer.wait_for(std::chrono::duration<double>(seconds)) != std::future_status::ready) return CallOutcome::NoAnswer;
+  if (!answer.get()) return CallOutcome::Failed;
+  call.response = pending->call.response;
+  return CallOutcome::Answered;
+}
+
+// The first part a component's status names that is not up: UNCONFIGURED (not yet configured, or not yet heard of),
+// ERROR or LOST; null if none. For a supervised supervisor, its own components still starting.
+const PartStatus* firstPartNotUp(const ComponentStatus& status) {
+  for (const auto& part : status.parts) {
+    if (part.state_name == "LOST" || part.state == ComponentStatus::UNCONFIGURED || part.state == ComponentStatus::ERROR) {
+      return &part;
+    }
+  }
+  return nullptr;
+}
 
 std::string memberString(const XmlRpc::XmlRpcValue& entry, const char* key, const std::string& where) {
   if (!entry.hasMember(key)) {
@@ -91,7 +125,7 @@ const core::ParameterTable& Supervisor::parameters() {
        core::numberParameter("heartbeat_timeout", 1.0, 0.05, 600.0,
                              "s of wall time without a status before a component counts as lost"),
        core::numberParameter("startup_timeout", 10.0, 0.1, 3600.0,
-                             "s of wall time a component may take to load and send its first status"),
+                             "s of wall time a component may take to load and send its first status, and each lifecycle call to answer"),
        core::flagParameter("restart", true, "restart a lost component (its manager respawned by roslaunch)")});
   return table;
 }
@@ -193,23 +227,44 @@ void Supervisor::setBringUp(BringUp state, const std::string& note) {
 std::string Supervisor::waitUntilUp(double patience, const std::function<bool()>& stop) const {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(patience);
   std::unique_lock<std::mutex> lock(mutex_);
-  while (bring_up_ != BringUp::Done) {
+  for (;;) {
     if (bring_up_ == BringUp::Failed) return bring_up_note_;
     if (bring_up_ == BringUp::Idle) return name() + " is not supervising (not ACTIVE)";
-    if (stop && stop()) return "stopped while " + bring_up_note_ + " was starting";
+    const bool started = bring_up_ == BringUp::Done;
+    const NotUp not_up = started ? notUpLocked() : NotUp{bring_up_note_, false};
+    if (started && not_up.what.empty()) return "";
+    if (not_up.failed) return not_up.what;  // a component that failed after it was started: nothing to wait for
+    const std::string waiting = not_up.what.empty() ? "the first component" : not_up.what;
+    if (stop && stop()) return "stopped while " + waiting + " was starting";
     if (std::chrono::steady_clock::now() >= until) {
-      return bring_up_note_ + " is still starting after " + core::describeNumber(patience) + " s";
+      return waiting + " is still starting after " + core::describeNumber(patience) + " s";
     }
     bring_up_changed_.wait_for(lock, std::chrono::milliseconds(100));
   }
-  return "";
+}
+
+Supervisor::NotUp Supervisor::notUpLocked() const {
+  for (const auto& component : components_) {
+    auto it = observed_.find(component.name);
+    if (it == observed_.end()) return {component.name, false};
+    const Observed& observed = it->second;
+    if (observed.state == LifecycleState::Error) return {component.name + " is in ERROR: " + observed.message, true};
+    if (observed.lost || observed.state == LifecycleState::Unconfigured) return {component.name, false};
+    if (!observed.part_not_up.empty()) return {component.name + "'s " + observed.part_not_up, observed.part_failed};
+  }
+  return {};
 }
 
 void Supervisor::onDeactivate() {
   stopMonitor();
   for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
+    if (lastKnownState(it->name) != LifecycleState::Active) continue;
+    if (!managerAnswers(it->manager)) {  // it went with its manager: nothing to ask, nothing to wait ~startup_timeout for
+      ROS_WARN_STREAM(name() << ": manager " << it->manager << " is gone; " << it->name << " went with it");
+      continue;
+    }
     try {
-      if (lastKnownState(it->name) == LifecycleState::Active) requestTransition(*it, LifecycleTransition::Deactivate);
+      requestTransition(*it, LifecycleTransition::Deactivate);
     } catch (const std::exception& e) {
       ROS_WARN_STREAM(name() << ": " << e.what());
     }
@@ -222,6 +277,10 @@ void Supervisor::onShutdown() {
   // would have to answer; the components are left to their managers.
   if (halting() || !ros::ok()) return;
   for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
+    if (!managerAnswers(it->manager)) {  // it went with its manager: nothing to ask, nothing to wait ~startup_timeout for
+      ROS_WARN_STREAM(name() << ": manager " << it->manager << " is gone; " << it->name << " went with it");
+      continue;
+    }
     try {
       requestTransition(*it, LifecycleTransition::Shutdown);
     } catch (const std::exception& e) {
@@ -302,7 +361,13 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
   // Asking again is safe: a transition already reached is accepted below.
   Transition call;
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(startup_timeout_);
-  while (!ros::service::call(service, call)) {
+  for (;;) {
+    const CallOutcome outcome = callWithin(service, call, startup_timeout_);
+    if (outcome == CallOutcome::Answered) break;
+    if (outcome == CallOutcome::NoAnswer) {  // asking again would only queue behind the call still running
+      throw std::runtime_error(component.name + " did not answer its " + toString(transition) + " within " +
+                               core::describeNumber(startup_timeout_) + " s (the transition is still running or stuck)");
+    }
     if (managerAnswers(component.manager) && !loadedIn(component)) {  // a respawned manager, without it
       throw std::runtime_error(component.name + " is no longer loaded in " + component.manager +
                                " (the manager was restarted)");
@@ -356,6 +421,10 @@ void Supervisor::onStatus(const std::string& name, const ComponentStatus::ConstP
     observed.state = state;
     observed.health = status->health;
     observed.heartbeat = status->heartbeat;
+    const PartStatus* part = firstPartNotUp(*status);
+    observed.part_not_up =
+        part ? part->name + " (" + part->state_name + (part->message.empty() ? "" : ": " + part->message) + ")" : "";
+    observed.part_failed = part && part->state == ComponentStatus::ERROR;
     if (!observed.lost) observed.message = status->last_error;
   }
   if (!newly_failed.empty()) supervisionEvent(name, "failed", name + " is in ERROR: " + newly_failed);

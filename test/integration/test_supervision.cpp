@@ -196,6 +196,36 @@ TEST_F(Supervision, ACommandCanWaitUntilEveryComponentIsUpAndIsToldWhichIsNot) {
       << why;
 }
 
+// A component whose configure never answers ends the bring-up after ~startup_timeout with its name, instead of holding
+// it for good; and a supervisor supervising a supervisor is not up until the inner one's components are (seen live:
+// ROBOTMODEL said ACTIVE while RELOCATION's configure hung, and LOOPMODEL's run waited for contracts that never came).
+TEST_F(Supervision, AStuckConfigureFailsTheBringUpAndANestedBringUpIsWaitedFor) {
+  InProcessSupervisor stuck("/stuck_supervisor", "stuck", "xpersif_test/StuckConfigureNodelet", "stuck_manager", 3.0);
+  ASSERT_TRUE(stuck.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(stuck.transition(xpersif::LifecycleTransition::Activate).success);
+  const ros::WallTime began = ros::WallTime::now();
+  std::string why = stuck.waitUntilUp(60.0, {});
+  EXPECT_NE(why.find("could not start /stuck: /stuck did not answer its configure within 3 s"), std::string::npos)
+      << why;
+  EXPECT_LT((ros::WallTime::now() - began).toSec(), 30.0) << "given up after ~startup_timeout, not the patience";
+
+  // The inner supervisor is ACTIVE at once; its component's configure hangs; the outer one must not call that "up".
+  XmlRpc::XmlRpcValue inner_components;
+  inner_components[0]["name"] = "stuck_inner";
+  inner_components[0]["type"] = "xpersif_test/StuckConfigureNodelet";
+  inner_components[0]["manager"] = "stuck_manager";
+  ros::param::set("/inner_supervisor/components", inner_components);
+  ros::param::set("/inner_supervisor/startup_timeout", 3.0);
+  InProcessSupervisor outer("/outer_supervisor", "inner_supervisor", "xpersif/SupervisorNodelet", "loop_manager", 20.0);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Activate).success);
+  why = outer.waitUntilUp(60.0, {});
+  EXPECT_NE(why.find("/inner_supervisor is in ERROR: could not start /stuck_inner: /stuck_inner did not answer its "
+                     "configure within 3 s"),
+            std::string::npos)
+      << why;
+}
+
 TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerIsBack) {
   Recorder<ComponentStatus> status(nh_, "/supervisor/status");
   Recorder<ComponentEvent> events(nh_, "/supervisor/events");

@@ -95,9 +95,10 @@ class Supervisor : public Component {
   bool unload(const SupervisedComponent& component, std::string* why) const;
   /// Load, configure and (if asked) activate one component, waiting for it to answer.
   void bringUp(const SupervisedComponent& component);
-  /// Waits until the bring-up that activation began has passed every component: "" then; otherwise why not (a
-  /// component could not be started, supervision stopped, @p stop said so, or @p patience s of wall time passed,
-  /// naming the component still starting). A command that needs the components calls it first: a supervisor just
+  /// Waits until the bring-up that activation began has passed every component, and every component says it is up
+  /// (a supervised supervisor's components too): "" then; otherwise why not (a component could not be started or
+  /// failed, supervision stopped, @p stop said so, or @p patience s of wall time passed, naming the component still
+  /// starting). A command that needs the components calls it first: a supervisor just
   /// (re)started is asked for work as soon as it is ACTIVE, while its components are still starting.
   std::string waitUntilUp(double patience, const std::function<bool()>& stop) const;
   double startupTimeout() const { return startup_timeout_; }
@@ -110,7 +111,16 @@ class Supervisor : public Component {
     std::uint64_t heartbeat = 0;
     bool lost = false;
     double next_restart = 0;  // wall time of the next restart attempt
+    std::string part_not_up;  // its first part not up (a nested supervisor's bring-up), e.g. "/relocation (UNCONFIGURED)"
+    bool part_failed = false;  // that part is in ERROR
   };
+  struct NotUp {
+    std::string what;     ///< "" when every component is up; else the first that is not, e.g. "/robot_model's /relocation"
+    bool failed = false;  ///< it is in ERROR: waiting longer will not help
+  };
+  /// Whether every supervised component is up as its last status says (not UNCONFIGURED, ERROR or lost, and none of
+  /// its parts so: a supervised supervisor's own bring-up counts). Under mutex_.
+  NotUp notUpLocked() const;
 
   static std::vector<SupervisedComponent> parseComponents(const XmlRpc::XmlRpcValue& list, const ros::NodeHandle& nh);
   void watch(const SupervisedComponent& component);
