@@ -6,6 +6,7 @@
 #   before    lockstep as before issue 37: the embodiment in a manager of its own
 #             (bench/loop_speed_before_embodiment.yaml) and the cameras at their own rate, no fixes asked for
 #             (bench/loop_speed_before.yaml)
+#   apart     lockstep as now, but the embodiment in a manager of its own (bench/loop_speed_before_embodiment.yaml)
 #   realtime  realtime x 8, as now
 # For a lockstep mode it runs the campaign twice: once timed, once with XPERSim's trace (the same ticks: lockstep is
 # deterministic), which bench/physics_replay steps again without messaging for the physics-only cost.
@@ -62,8 +63,9 @@ for mode in $modes; do
     now) args=() clock=lockstep ;;
     before) args=(embodiment:="$repo/bench/loop_speed_before_embodiment.yaml"
                   parameters:="$repo/bench/loop_speed_before.yaml") clock=lockstep ;;
+    apart) args=(embodiment:="$repo/bench/loop_speed_before_embodiment.yaml") clock=lockstep ;;
     realtime) args=() clock=realtime ;;
-    *) echo "run_loop_speed: unknown mode '$mode' (now, before, realtime)" >&2; exit 2 ;;
+    *) echo "run_loop_speed: unknown mode '$mode' (now, before, apart, realtime)" >&2; exit 2 ;;
   esac
   run "$mode" "$clock" ${args[@]+"${args[@]}"}
   physics="no physics-only figure (not lockstep)"
