@@ -407,7 +407,8 @@ def run_cells(args, cells):
 
     signal.signal(signal.SIGTERM, interrupted)
     try:
-        while queue or running:
+        # Cells that ran but have no curve yet (a study stopped between a run's end and its curve) are curved too.
+        while queue or running or (waiting_curve and evaluation in finished_cells):
             while len(running) < args.jobs:
                 ready = [c for c in queue if not c.waits_for_evaluation or evaluation in finished_cells]
                 if not ready and evaluation in failed:  # the oracle's objects come from the evaluation set
@@ -582,6 +583,18 @@ def object_curve(cell):
     return out
 
 
+def goal_curve(cell):
+    """({object: {k: one-push goal error}}, {object: (random choice, best choice)}) from the cell's curve_goals.csv
+    (empty for a cell curved before it existed)."""
+    path = os.path.join(cell.run_dir, "curve_goals.csv")
+    curves, references = {}, {}
+    if os.path.exists(path):
+        for r in read_csv(path):
+            curves.setdefault(r["object"], {})[int(r["experiments"])] = float(r["goal_error"])
+            references[r["object"]] = (float(r["random_choice"]), float(r["best_choice"]))
+    return curves, references
+
+
 def cell_goals(cell):
     """The cell's goals from its knowledge base: (object, reached, final error, pushes), and the tolerance."""
     con = sqlite3.connect("file:%s?mode=ro" % os.path.join(cell.run_dir, "knowledge.db"), uri=True)
@@ -622,6 +635,17 @@ def measures_files(out, data, moving, budget):
                 w.writerow([row["design"], "area_paired", row["seeds"], *row["paired"]])
             if row.get("oracle_fraction"):
                 w.writerow([row["design"], "oracle_fraction", row["seeds"], *row["oracle_fraction"]])
+    references = {}
+    for d in data.values():
+        references.update(d["goal_curve"][1])  # the same in every cell: a property of the evaluation set
+    measured["competence"] = study_measures.competence(
+        {key: d["goal_curve"][0] for key, d in data.items() if d["goal_curve"][0]}, references, moving, budget)
+    with open(os.path.join(out, "competence.csv"), "w", newline="") as f:
+        comp = measured["competence"]
+        w = csv.writer(f)
+        w.writerow(["design", "seed"] + ["goal_error_" + n for n, _ in comp["fractions"]])
+        for (design, seed), v in sorted(comp["cells"].items()):
+            w.writerow([design, seed] + [v[n] for n, _ in comp["fractions"]])
     with open(os.path.join(out, "object_curves.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["design", "object", "experiments", "seeds", "mean", "ci_low", "ci_high"])
@@ -700,6 +724,37 @@ def measures_section(measured, moving, move_shares, ev_rows, eval_objects):
     md.append("Files: `measures.csv` (every ratio with its interval), `cell_measures.csv` (per cell), "
               "`object_curves.csv` (per object and design).")
     md.append("")
+    md.extend(competence_section(measured.get("competence")))
+    return md
+
+
+def competence_section(comp):
+    """Competence at one-push goals (issue 38): what the model can do with what it predicts."""
+    if not comp or not comp["cells"]:
+        return []
+    names = [n for n, _ in comp["fractions"]]
+    ks = dict(comp["fractions"])
+    md = ["## Competence: one-push goals", "",
+          "With the model learned after k experiments, one push to bring an object to a target: the targets are the "
+          "evaluation set's measured outcomes, each object's own; for a target the model picks, among the object's "
+          "other evaluation pushes, the one it predicts lands closest; the error is where that push really went "
+          "(m, a turn counted at 2 cm per radian), averaged with equal weight over the learnable objects that move. "
+          "The pushes' outcomes are the simulator's, measured once in the evaluation set, so no design is judged on "
+          "other pushes than another (core::oneShotGoalErrors). A model that knows nothing does what picking at "
+          "random does: %.4f m; the best choice the pushes allow: %.4f m." % (comp["random_choice"], comp["best_choice"]),
+          "",
+          "| design | seeds | " + " | ".join("goal error at %s (k=%d)" % (n, ks[n]) for n in names) + " |",
+          "|---|---|" + "---|" * len(names)]
+    rows = {r["design"]: r for r in comp["rows"]}
+    for design, means in comp["means"].items():
+        seeds = sum(1 for d, _ in comp["cells"] if d == design)
+        cells = []
+        for n in names:
+            r = rows.get(design, {}).get(n)
+            cells.append("%.4f" % means[n] + (" (ratio %.3f, %.3f–%.3f)" % r if r else ""))
+        md.append("| %s | %d | %s |" % (design, seeds, " | ".join(cells)))
+    md += ["", "Ratios are to random's mean goal error (geometric, bootstrap over seeds); below 1 is better. "
+           "File: `competence.csv` (per cell).", ""]
     return md
 
 
@@ -718,6 +773,7 @@ def report(args, cells, eval_objects, eval_why):
             "experiments": read_csv(os.path.join(cell.run_dir, "experiments.csv")),
             "notions": read_csv(os.path.join(cell.run_dir, "notions.csv")),
             "objects": object_curve(cell),
+            "goal_curve": goal_curve(cell),
         }
     designs = [d for d in args.designs if any(k[0] == d for k in data)]
     seeds = sorted({k[1] for k in data})

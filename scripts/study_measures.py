@@ -216,3 +216,36 @@ def measures(cells, objects, budget, seed=0):
         out["null_ok"] = lo <= 1.0 <= hi
         out["null_seeds"] = min(null_row["seeds"], len(base))
     return out
+
+
+def competence(goal_cells, references, objects, budget, seed=0):
+    """Competence at one-push goals (core::oneShotGoalErrors): per cell, the goal error after a quarter, half and all
+    of the budget, averaged with equal weight over `objects`; per design its mean and its ratio to random with a 95 %
+    bootstrap interval; and the two choosers that do not learn, averaged the same way: picking a push at random (what
+    a model that knows nothing gets) and picking the best (the floor the evaluation pushes allow).
+    goal_cells: {(design, seed): {object: {k: goal error}}}; references: {object: (random choice, best choice)}."""
+    rng = random.Random(seed)
+    fractions = (("quarter", max(1, int(math.ceil(budget / 4.0)))), ("half", max(1, int(math.ceil(budget / 2.0)))),
+                 ("all", budget))
+    present = [o for o in objects if o in references]
+    out = {"fractions": fractions, "cells": {}, "rows": [], "means": {},
+           "random_choice": mean([references[o][0] for o in present]) if present else float("nan"),
+           "best_choice": mean([references[o][1] for o in present]) if present else float("nan")}
+    for key, curves in goal_cells.items():
+        curve = balanced_curve(curves, objects)
+        if curve:
+            out["cells"][key] = {name: error_at(curve, k) for name, k in fractions}
+    designs = sorted({d for d, _ in out["cells"]}, key=lambda d: (d != BASE, d != NULL, d == ORACLE, d))
+    by_design = {d: [v for (dd, _), v in out["cells"].items() if dd == d] for d in designs}
+    for d in designs:
+        out["means"][d] = {name: mean([v[name] for v in by_design[d]]) for name, _ in fractions}
+    base = by_design.get(BASE)
+    for d in designs:
+        if d == BASE or not base:
+            continue
+        row = {"design": d, "seeds": len(by_design[d])}
+        for name, _ in fractions:
+            row[name] = ratio([math.log(max(v[name], 1e-12)) for v in by_design[d]],
+                              [math.log(max(v[name], 1e-12)) for v in base], rng)
+        out["rows"].append(row)
+    return out

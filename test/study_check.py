@@ -8,6 +8,7 @@ running xpersif_study_curve again into a temporary directory) and compared.
 """
 import csv
 import json
+import glob
 import math
 import os
 import sqlite3
@@ -190,7 +191,40 @@ for design in designs:
     check(float(row["ci_low"]) <= float(row["ratio_to_random"]) <= float(row["ci_high"]),
           "measures.csv %s: the interval does not hold the ratio" % design)
 
+# Competence at one-push goals: the choosers that do not learn recomputed here from the evaluation set's outcomes alone
+# (picking at random; picking the best), and competence.csv's cells from each cell's curve_goals.csv at the budget.
+def dist(a, b):
+    turn = math.remainder(a[2] - b[2], 2 * math.pi)
+    return math.hypot(a[0] - b[0], a[1] - b[1]) + 0.02 * abs(turn)
+
+
+for o in moving:
+    outs = [(r[2], r[3], r[4]) for r in ev_moves if r[0] == o]
+    if len(outs) < 2:
+        continue
+    want_random = sum(sum(dist(outs[i], t) for i in range(len(outs)) if i != j) / (len(outs) - 1)
+                      for j, t in enumerate(outs)) / len(outs)
+    want_best = sum(min(dist(outs[i], t) for i in range(len(outs)) if i != j) for j, t in enumerate(outs)) / len(outs)
+    for cell_dir in glob.glob(os.path.join(study, "cells", "*")):
+        for r in rows(os.path.join(cell_dir, "curve_goals.csv")):
+            if r["object"] == o:
+                check(close(r["random_choice"], want_random, 1e-5) and close(r["best_choice"], want_best, 1e-5),
+                      "%s/curve_goals.csv %s: random and best choice %s %s, recomputed %s %s" % (
+                          cell_dir, o, r["random_choice"], r["best_choice"], want_random, want_best))
+                break
+competence = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "competence.csv"))}
+check(set(competence) == set(object_curves), "competence.csv has cells %s" % sorted(competence))
+for (design, seed), r in competence.items():
+    goal = {}
+    for g in rows(os.path.join(study, "cells", "%s-seed%03d" % (design, seed), "curve_goals.csv")):
+        goal.setdefault(g["object"], {})[int(g["experiments"])] = float(g["goal_error"])
+    last = max(set.intersection(*(set(goal[o]) for o in moving)))
+    want = sum(goal[o][last] for o in moving) / len(moving)
+    check(close(r["goal_error_all"], want), "competence.csv %s seed %d: %s at the budget, recomputed %s"
+          % (design, seed, r["goal_error_all"], want))
+
 text = open(os.path.join(report, "report.md")).read()
+check("## Competence: one-push goals" in text, "report.md has no competence section")
 if "random_null" in designs:
     check("**The null**" in text, "report.md does not show the null arm")
 check("no difference from random can be claimed" in text or "than random (area ratio" in text,

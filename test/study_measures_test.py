@@ -106,5 +106,24 @@ class Measures(unittest.TestCase):
         self.assertGreater(sm.detectable_effect(few), sm.detectable_effect(many))
 
 
+
+class Competence(unittest.TestCase):
+    def test_ratios_and_references_average_the_moving_objects_equally(self):
+        goal_cells = {}
+        for s in range(1, 6):
+            goal_cells[("random", s)] = {"cube": {0: 0.04, 20: 0.02, 40: 0.02}, "bar": {0: 0.02, 20: 0.02, 40: 0.01},
+                                         "block": {0: 9.0, 20: 9.0, 40: 9.0}}
+            goal_cells[("good", s)] = {o: {k: e / 2 for k, e in c.items()} for o, c in goal_cells[("random", s)].items()}
+        references = {"cube": (0.05, 0.01), "bar": (0.03, 0.005), "block": (1.0, 1.0)}
+        comp = sm.competence(goal_cells, references, ["cube", "bar"], budget=40)
+        self.assertAlmostEqual(comp["means"]["random"]["all"], 0.015)
+        self.assertAlmostEqual(comp["means"]["random"]["quarter"], 0.02)  # the first checkpoint at or after k=10
+        self.assertAlmostEqual(comp["random_choice"], 0.04)
+        self.assertAlmostEqual(comp["best_choice"], 0.0075)
+        row = comp["rows"][0]
+        self.assertEqual(row["design"], "good")
+        for name in ("quarter", "half", "all"):
+            self.assertAlmostEqual(row[name][0], 0.5)
+
 if __name__ == "__main__":
     unittest.main()

@@ -9,7 +9,8 @@
 // learner, configured as MACHINELEARNING configures it (evaluation.h), trained on the run's first k successful
 // designed experiments; its RMS error on the evaluation set (m) for k = 0, K, 2K, ... and the last k goes to
 // DIR/curve.csv (experiments,error), and per object of the evaluation set to DIR/curve_objects.csv
-// (experiments,object,error,pushes). `--learner per_object` trains one model per object instead, each on that
+// (experiments,object,error,pushes), and the model's competence at one-push goals per object to DIR/curve_goals.csv
+// (experiments,object,goal_error,random_choice,best_choice; core::oneShotGoalErrors). `--learner per_object` trains one model per object instead, each on that
 // object's pushes alone (core::LearnerScope; bench/loop.md compares the two on a study's knowledge bases). DIR/notions.csv gets the run's notions (subject,predicate,confidence,
 // support,text), DIR/experiments.csv every designed experiment of the run in order (seq,object,side,offset,
 // distance,status,surprise). Exit codes: --help.
@@ -122,13 +123,22 @@ int main(int argc, char** argv) {
         objects << curve.experiments[i] << "," << object << "," << errors[i] << "," << curve.object_pushes.at(object) << "\n";
       }
     }
+    std::ofstream goals(out + "/curve_goals.csv");
+    goals << "experiments,object,goal_error,random_choice,best_choice\n" << std::setprecision(9);
+    for (const auto& [object, errors] : curve.object_goal_error) {
+      const auto& [random_choice, best_choice] = curve.object_goal_random_best.at(object);
+      for (std::size_t i = 0; i < errors.size(); ++i) {
+        goals << curve.experiments[i] << "," << object << "," << errors[i] << "," << random_choice << "," << best_choice
+              << "\n";
+      }
+    }
     std::ofstream notions(out + "/notions.csv");
     notions << "subject,predicate,confidence,support,text\n";
     for (const auto& notion : kb->notions(run.id)) {
       notions << notion.subject << "," << notion.predicate << "," << notion.confidence << "," << notion.support << ","
               << csvText(notion.text) << "\n";
     }
-    if (!csv || !objects || !notions || !experiments) throw std::runtime_error("cannot write into " + out);
+    if (!csv || !objects || !goals || !notions || !experiments) throw std::runtime_error("cannot write into " + out);
     std::cout << run_name << ": " << training.size() << " experiments learned, " << evaluation.size()
               << " evaluation pushes, final error " << curve.error.back() << " m\n";
   } catch (const KnowledgeBaseError& e) {

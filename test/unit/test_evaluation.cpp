@@ -7,6 +7,7 @@
 #include <random>
 
 #include "xpersif/core/evaluation/evaluation.h"
+#include "xpersif/core/learning/motivation.h"
 
 using namespace xpersif::core;
 
@@ -187,4 +188,41 @@ TEST(Evaluation, SceneIdentitiesKeepTheOrderTheScenesListThem) {
   b.before.objects = {ObjectFeatures{"blue_cube", 0, 0, 0, {}}, ObjectFeatures{"green_cube", 0, 0, 0, {}}};
   EXPECT_EQ(sceneIdentities({a, b}), (std::vector<std::string>{"red_cube", "blue_cube", "green_cube"}));
   EXPECT_TRUE(sceneIdentities({}).empty());
+}
+
+// Competence at one-push goals (issue 38): a model that predicts every outcome picks the push the library's best
+// chooser picks; one that predicts nothing useful does no better than picking at random; and a model that learned
+// from pushes gets better than it was with none.
+TEST(Evaluation, OneShotGoalErrorIsTheBestChoiceForAPerfectModelAndFallsAsTheModelLearns) {
+  std::vector<PushSample> evaluation;
+  for (int i = 0; i < 6; ++i) {
+    PushSample s;
+    s.input.experiment.object = "cube";
+    s.outcome = Outcome{0.01 * (i + 1), 0.0, 0.0};  // 1, 2, ... 6 cm along the push
+    evaluation.push_back(s);
+  }
+  std::vector<Outcome> perfect;
+  for (const auto& s : evaluation) perfect.push_back(s.outcome);
+  const auto [random_choice, best_choice] = goalReferences(evaluation).at("cube");
+  EXPECT_NEAR(best_choice, 0.01, 1e-12) << "the nearest other outcome is 1 cm away for every target";
+  EXPECT_NEAR(oneShotGoalErrors(evaluation, perfect).at("cube"), best_choice, 1e-12);
+  // Mean distance to the other five, over the six targets: (15+11+9+9+11+15)/5/6 cm = 2.33 cm.
+  EXPECT_NEAR(random_choice, 0.07 / 3.0, 1e-12);
+  const std::vector<Outcome> nothing(evaluation.size(), Outcome{0.0, 0.0, 0.0});
+  // Predicting no motion for all: the first other push (ties go to the earlier) is always chosen.
+  EXPECT_GT(oneShotGoalErrors(evaluation, nothing).at("cube"), best_choice * 2);
+  EXPECT_NEAR(outcomeDistance(Outcome{0, 0, M_PI - 0.1}, Outcome{0, 0, -M_PI + 0.1}), 0.2 * kYawLength, 1e-12)
+      << "a turn is measured the short way round";
+
+  // From the learning curve: with the synthetic pushes, the model after 60 pushes chooses better than with none.
+  std::mt19937 rng(7);
+  std::vector<ExperimentRecord> records;
+  for (int i = 0; i < 90; ++i) records.push_back(synthetic(rng, i + 1));
+  const auto samples = pushSamples(records);
+  const std::vector<PushSample> training(samples.begin(), samples.begin() + 60), held(samples.begin() + 60, samples.end());
+  const auto curve = learningCurve("c", training, held, loopLearnerConfig(sceneIdentities(records)), {0, 60});
+  const auto& red = curve.object_goal_error.at("red_cube");
+  ASSERT_EQ(red.size(), 2u);
+  EXPECT_LT(red[1], red[0]);
+  EXPECT_LE(curve.object_goal_random_best.at("red_cube").second, red[1] + 1e-12) << "no model beats the best choice";
 }

@@ -82,18 +82,73 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
     if (!first.empty()) learner->addSamples(first);
     double sum = 0;
     std::map<std::string, double> object_sum;
+    std::vector<Outcome> predicted;
     for (const auto& s : evaluation) {
-      const double e = surprise(learner->predict(s.input), s.outcome).error;
+      const Prediction prediction = learner->predict(s.input);
+      predicted.push_back(prediction.mean);
+      const double e = surprise(prediction, s.outcome).error;
       sum += e * e;
       object_sum[s.input.experiment.object] += e * e;
     }
+    for (const auto& [object, e] : oneShotGoalErrors(evaluation, predicted)) curve.object_goal_error[object].push_back(e);
     curve.experiments.push_back(k);
     curve.error.push_back(evaluation.empty() ? NAN : std::sqrt(sum / evaluation.size()));
     for (const auto& [object, squares] : object_sum) {
       curve.object_error[object].push_back(std::sqrt(squares / curve.object_pushes[object]));
     }
   }
+  curve.object_goal_random_best = goalReferences(evaluation);
   return curve;
+}
+
+double outcomeDistance(const Outcome& a, const Outcome& b) {
+  return std::hypot(a.dx - b.dx, a.dy - b.dy) + kYawLength * std::abs(std::remainder(a.dyaw - b.dyaw, 2 * M_PI));
+}
+
+std::map<std::string, double> oneShotGoalErrors(const std::vector<PushSample>& evaluation,
+                                                 const std::vector<Outcome>& predicted) {
+  std::map<std::string, std::vector<std::size_t>> by_object;
+  for (std::size_t i = 0; i < evaluation.size(); ++i) by_object[evaluation[i].input.experiment.object].push_back(i);
+  std::map<std::string, double> out;
+  for (const auto& [object, pushes] : by_object) {
+    if (pushes.size() < 2) continue;
+    double sum = 0;
+    for (std::size_t target : pushes) {
+      std::size_t chosen = target;
+      double closest = INFINITY;
+      for (std::size_t i : pushes) {  // ties go to the earlier push: deterministic
+        const double d = i == target ? INFINITY : outcomeDistance(predicted[i], evaluation[target].outcome);
+        if (d < closest) closest = d, chosen = i;
+      }
+      sum += outcomeDistance(evaluation[chosen].outcome, evaluation[target].outcome);
+    }
+    out[object] = sum / static_cast<double>(pushes.size());
+  }
+  return out;
+}
+
+std::map<std::string, std::pair<double, double>> goalReferences(const std::vector<PushSample>& evaluation) {
+  std::map<std::string, std::vector<const Outcome*>> by_object;
+  for (const auto& s : evaluation) by_object[s.input.experiment.object].push_back(&s.outcome);
+  std::map<std::string, std::pair<double, double>> out;
+  for (const auto& [object, outcomes] : by_object) {
+    if (outcomes.size() < 2) continue;
+    double random_sum = 0, best_sum = 0;
+    for (std::size_t t = 0; t < outcomes.size(); ++t) {
+      double sum = 0, best = INFINITY;
+      for (std::size_t i = 0; i < outcomes.size(); ++i) {
+        if (i == t) continue;
+        const double d = outcomeDistance(*outcomes[i], *outcomes[t]);
+        sum += d;
+        best = std::min(best, d);
+      }
+      random_sum += sum / static_cast<double>(outcomes.size() - 1);
+      best_sum += best;
+    }
+    const double n = static_cast<double>(outcomes.size());
+    out[object] = {random_sum / n, best_sum / n};
+  }
+  return out;
 }
 
 namespace {

@@ -51,7 +51,30 @@ struct LearningCurve {
   /// the objects equally from these, so that the object with the most evaluation pushes does not decide the curve.
   std::map<std::string, std::vector<double>> object_error;
   std::map<std::string, int> object_pushes;  ///< evaluation pushes per object
+  /// Competence, per object of the evaluation set, in the order of `experiments`: the one-push goal error (m), see
+  /// oneShotGoalErrors.
+  std::map<std::string, std::vector<double>> object_goal_error;
+  /// Per object, the same measure for two choosers that do not depend on k: picking a push at random (the null) and
+  /// picking the best one (a model that knows every outcome; the floor the push library allows).
+  std::map<std::string, std::pair<double, double>> object_goal_random_best;
 };
+
+/// How far apart two outcomes are (m): the distance of the displacements in the push's frame plus a turn counted at
+/// kYawLength per radian.
+double outcomeDistance(const Outcome& a, const Outcome& b);
+
+/// Competence of a model at one-push goals, on the evaluation set as a library of pushes with measured outcomes. The
+/// targets are fixed: each evaluation push's outcome on its object. For a target, the model picks, among the object's
+/// other evaluation pushes, the one whose predicted outcome (@p predicted, one per sample of @p evaluation) is closest
+/// to it; the error is how far the chosen push's measured outcome is from the target. Per object, the mean error over
+/// its targets (objects with fewer than two pushes are left out). Pushing once from a library of measured pushes
+/// stands in for pushing in the simulator: the outcomes are the simulator's, and every design is judged on the same.
+std::map<std::string, double> oneShotGoalErrors(const std::vector<PushSample>& evaluation,
+                                                 const std::vector<Outcome>& predicted);
+
+/// Per object, oneShotGoalErrors for a chooser picking uniformly at random (its expected error) and for one picking the
+/// push whose measured outcome is closest: (random, best).
+std::map<std::string, std::pair<double, double>> goalReferences(const std::vector<PushSample>& evaluation);
 
 /// How the learner is trained: one model over every object (learner_type random_forest, MACHINELEARNING's
 /// default), or one model per object with the shared one for objects seen fewer than three times
