@@ -28,6 +28,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import study  # noqa: E402  (scripts/, beside this file)
 
 EXIT_FILE = "slurm_exit"
+GONE_GRACE_S = 10.0
 TASK_SCRIPT = """#!/bin/bash
 # Written by scripts/study_slurm.py: one array task of the study in %(out)s (doc/slurm.md). It sets up the build's
 # environment (%(repo)s/scripts/env.sh: the devel space of %(repo)s/build) and runs the task's cells.
@@ -64,6 +65,7 @@ class SlurmCells:
         self.where = {}  # cell name -> "JOBID_TASK"
         self.queue_seen, self.queue_time, self.queue_warned = None, 0.0, 0.0
         self.submitted = 0
+        self.gone = {}  # cell name -> when its task was first seen out of the queue without its exit file
         with open(os.path.join(self.dir, "task.sh"), "w") as f:
             f.write(TASK_SCRIPT % {"out": args.out, "repo": study.REPO})
 
@@ -122,6 +124,7 @@ class SlurmCells:
         cell.attempts += 1
         cell.done_units = 0
         cell.started = time.time()
+        self.gone.pop(cell.name, None)
         self.pending.append(cell)
 
     def sbatch_command(self, tasks, manifest):
@@ -170,7 +173,11 @@ class SlurmCells:
             queued = self.queued()
             if queued is None or self.where[cell.name] in queued:
                 return None
-            if not os.path.exists(exit_file):  # it may have ended since the file was looked for
+            # A shared filesystem may show the task's last file late (NFS caches attributes): a grace period.
+            gone = self.gone.setdefault(cell.name, time.time())
+            if time.time() - gone < GONE_GRACE_S:
+                return None
+            if not os.path.exists(exit_file):
                 where = self.where[cell.name]
                 cell.outcome = (1, "its Slurm task %s ended without it: %s" % (where, self.reason(where)))
                 return 1
