@@ -75,6 +75,7 @@ slurm_node_start() {
   nsenter --net="/var/run/netns/${SLURM_NS_PREFIX}$node" slurmd -D -f "$SLURM_CONF" -N "$node" \
     >>"$SLURM_DIR/slurmd-$node.out" 2>&1 &
   SLURM_PIDS+=($!)
+  disown $!  # a node killed on purpose is no news to the shell
 }
 
 slurm_node_kill() {
@@ -128,6 +129,7 @@ slurm_cluster_stop() {
     kill "$pid" 2>/dev/null || true
   done
   for pid in "${SLURM_PIDS[@]}"; do
+    for ((i = 0; i < 50 && $(kill -0 "$pid" 2>/dev/null && echo 1 || echo 0); i++)); do sleep 0.1; done
     wait "$pid" 2>/dev/null || true
   done
 }

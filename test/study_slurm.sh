@@ -23,7 +23,7 @@ T=$(mktemp -d /tmp/xpersif-slurm-XXXXXX)
 source "$HERE/test/slurm_cluster.sh"
 runner=""
 cleanup() {
-  [[ -z "$runner" ]] || kill -- -"$runner" 2>/dev/null || true
+  [[ -z "$runner" ]] || kill -9 -- -"$runner" 2>/dev/null || true
   slurm_cluster_stop
   [ -n "${KEEP:-}" ] && echo "kept $T" || rm -rf "$T"
 }
@@ -89,7 +89,7 @@ same_as_local() {  # same_as_local STUDY: every cell's knowledge base and the re
   for cell in "$T/local/evaluation" "$T/local/cells/"*; do
     name=${cell#"$T/local/"}
     /usr/bin/python3 "$HERE/scripts/compare_kb.py" "$cell/knowledge.db" "$study/$name/knowledge.db" ||
-      fail "$name: the knowledge base through Slurm differs from the local one"
+      fail "$name: the knowledge base through Slurm differs from the local one (if the machine was loaded by something else, see doc/lockstep.md, \"Run it on a quiet machine\")"
   done
   cmp "$T/local/report/cells.csv" "$study/report/cells.csv" || fail "$study/report/cells.csv differs from the local one"
 }
@@ -99,7 +99,8 @@ echo "ok: 5 knowledge bases equal field by field to the local backend's, and the
 # ---- 2. a node dies while its cell runs; the runner died before it ----
 runner_start "$T/failure" "$T/failure1.log"
 victim=""
-for ((i = 0; i < 120 && -z "$victim"; i++)); do
+for ((i = 0; i < 120; i++)); do
+  [[ -z "$victim" ]] || break
   sleep 1
   task=$(squeue -h -r -t RUNNING -w n2 -n xpersif-study-failure -o "%i" 2>/dev/null | head -1) || true
   [[ -n "$task" ]] || continue
