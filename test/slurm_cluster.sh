@@ -129,7 +129,8 @@ slurm_cluster_stop() {
     kill "$pid" 2>/dev/null || true
   done
   for pid in "${SLURM_PIDS[@]}"; do
-    for ((i = 0; i < 50 && $(kill -0 "$pid" 2>/dev/null && echo 1 || echo 0); i++)); do sleep 0.1; done
+    i=0
+    while kill -0 "$pid" 2>/dev/null && ((i++ < 50)); do sleep 0.1; done
     wait "$pid" 2>/dev/null || true
   done
 }
