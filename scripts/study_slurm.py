@@ -29,6 +29,7 @@ import study  # noqa: E402  (scripts/, beside this file)
 
 EXIT_FILE = "slurm_exit"
 GONE_GRACE_S = 10.0
+MAX_ARRAY = 1000  # tasks per array: Slurm's MaxArraySize is 1001 unless a site raises it
 TASK_SCRIPT = """#!/bin/bash
 # Written by scripts/study_slurm.py: one array task of the study in %(out)s (doc/slurm.md). It sets up the build's
 # environment (%(repo)s/scripts/env.sh: the devel space of %(repo)s/build) and runs the task's cells.
@@ -137,11 +138,14 @@ class SlurmCells:
         return command + list(a.sbatch_arg) + [os.path.join(self.dir, "task.sh"), manifest]
 
     def submit(self):
-        """The cells prepared this round as one job array."""
-        if not self.pending:
-            return
+        """The cells prepared this round as one job array (several when they are more than MAX_ARRAY tasks)."""
         k = self.args.cells_per_task
         tasks = [self.pending[i:i + k] for i in range(0, len(self.pending), k)]
+        for i in range(0, len(tasks), MAX_ARRAY):
+            self.submit_array(tasks[i:i + MAX_ARRAY])
+        self.pending = []
+
+    def submit_array(self, tasks):
         jobs = self.jobs()
         manifest = os.path.join(self.dir, "round-%03d.json" % (len(jobs) + 1))
         with open(manifest, "w") as f:
@@ -162,7 +166,6 @@ class SlurmCells:
             for cell in task:
                 self.where[cell.name] = "%s_%d" % (job, index)
         self.submitted += 1
-        self.pending = []
         self.queue_seen = None  # the new tasks are not in the last answer
 
     def poll(self, cell):
