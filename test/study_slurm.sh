@@ -10,7 +10,9 @@
 #     every process of n2 (its slurmd, the job step, the cell); the same command again adopts the cells still queued
 #     or running, finds the dead node's cell failed with Slurm's reason, submits it once more, and the study
 #     completes with the local backend's results; n2 comes back (ReturnToService=2) once its slurmd runs again;
-#  3. SIGTERM to a runner cancels its arrays (scancel) and exits 130.
+#  3. SIGTERM to a runner cancels its arrays (scancel) and exits 130;
+# and before them, sbatch refusing the example's first array (an unknown partition) ends the study with exit 2 and
+# sbatch's own sentence.
 #   bash test/study_slurm.sh BUILD_DIR        KEEP=1 keeps the scratch directory
 # Needs root (network namespaces) and the Debian packages slurmctld, slurmd, slurm-client and munge.
 set -eo pipefail
@@ -63,6 +65,13 @@ PY
 
 slurm_cluster_start "$T/cluster" || fail "the cluster did not start"
 echo "ok: munged, slurmctld and two slurmd (n1, n2 in network namespaces) up in $((SECONDS - started_all)) s"
+
+# ---- 0. sbatch refusing the first array is a usage error, with sbatch's sentence ----
+code=0
+(cd "$HERE" && STUDY=$T/refused PARTITION=no_such_partition bash -e "$T/example.sh") 2>"$T/refused.log" || code=$?
+[[ $code == 2 ]] || { cat "$T/refused.log"; fail "an unknown partition: exit $code, not 2"; }
+grep -q "sbatch refused the array: .*partition" "$T/refused.log" || { cat "$T/refused.log"; fail "no sentence for the refusal"; }
+echo "ok: an unknown partition: exit 2, $(grep "sbatch refused" "$T/refused.log")"
 
 # ---- 1. the guide's example through Slurm, then locally ----
 started=$SECONDS
