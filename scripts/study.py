@@ -72,7 +72,9 @@ def parse_args(argv):
     p.add_argument("--world", default=os.path.join(REPO, "worlds", "structured.yaml"),
                    help="the world file (default: the default experiment's, worlds/structured.yaml)")
     p.add_argument("--out", default=None, help="the study's directory (default studies/<time>)")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="cells at once (default: the cores)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="cells at once (default: the cores; slurm: at most this many tasks of an array at once, "
+                        "default no limit)")
     p.add_argument("--evaluation-size", type=int, default=None,
                    help="pushes of the held-out evaluation set (default 30 per evaluation object)")
     p.add_argument("--evaluation-objects", default=None,
@@ -112,6 +114,9 @@ def parse_args(argv):
         fail("--budget is %d; it must be in 1..100000" % a.budget)
     if a.goals < 0 or a.goals > 10000:
         fail("--goals is %d; it must be in 0..10000" % a.goals)
+    a.array_limit = a.jobs  # slurm: sbatch --array=...%J when --jobs is given
+    if a.jobs is None:
+        a.jobs = os.cpu_count() or 1
     if a.jobs < 1:
         fail("--jobs is %d; it must be at least 1" % a.jobs)
     if a.evaluation_size is not None and a.evaluation_size < 1:
@@ -1087,7 +1092,8 @@ def main(argv):
         fail("--report-only: no cell of the study in %s has finished; there is nothing to report" % args.out, 3)
     print("study: %s: %d designs x %d seeds x %d experiments, evaluation set %d pushes of %s; %s" % (
         args.out, len(args.designs), len(args.seed_list), args.budget, args.evaluation_size, ", ".join(eval_objects),
-        "through Slurm, %d cells per array task" % args.cells_per_task if args.backend == "slurm" else
+        "through Slurm, %d cells per array task%s" % (args.cells_per_task, ", at most %d tasks at once" % args.jobs
+                                                        if args.array_limit else "") if args.backend == "slurm" else
         "%d at once" % args.jobs), file=sys.stderr)
     failed = [] if args.report_only else run_cells(args, cells)
     path = report(args, cells, eval_objects, eval_why)

@@ -130,7 +130,8 @@ class SlurmCells:
 
     def sbatch_command(self, tasks, manifest):
         a = self.args
-        command = ["sbatch", "--parsable", "--array=0-%d" % (tasks - 1), "--job-name=" + self.name,
+        limit = "%%%d" % a.array_limit if a.array_limit else ""
+        command = ["sbatch", "--parsable", "--array=0-%d%s" % (tasks - 1, limit), "--job-name=" + self.name,
                    "--output=" + os.path.join(self.dir, "%A_%a.out"), "--chdir=" + self.dir, "--no-requeue"]
         for option, value in (("--partition", a.partition), ("--time", a.time), ("--mem", a.mem)):
             if value:

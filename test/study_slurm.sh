@@ -6,7 +6,7 @@
 #     again submits nothing; the same study with the local backend (the example without its last line, as the guide
 #     says) gives the same knowledge base in every cell, field by field (scripts/compare_kb.py), and the same
 #     report/cells.csv;
-#  2. the example again in another directory: once a cell runs on n2, the runner is killed (SIGKILL: no scancel), then
+#  2. the example again in another directory, two cells per task (--cells-per-task 2): once a cell runs on n2, the runner is killed (SIGKILL: no scancel), then
 #     every process of n2 (its slurmd, the job step, the cell); the same command again adopts the cells still queued
 #     or running, finds the dead node's cell failed with Slurm's reason, submits it once more, and the study
 #     completes with the local backend's results; n2 comes back (ReturnToService=2) once its slurmd runs again;
@@ -49,17 +49,20 @@ grep -q -- "--backend\|--partition" "$T/local.sh" && fail "the example's Slurm o
 example() {  # example SCRIPT STUDY LOG: run the guide's block from the repository's root
   (cd "$HERE" && STUDY=$2 PARTITION=study bash -e "$1") 2>"$3"
 }
-runner_start() {  # runner_start STUDY LOG: the example in the background, in a process group of its own ($runner)
-  setsid bash -c 'cd "$0" && STUDY=$1 PARTITION=study exec bash -e "$2"' "$HERE" "$1" "$T/example.sh" 2>"$2" &
+# Case 2 packs two cells per task (--cells-per-task 2 appended to the example's command).
+sed '$ s/$/ --cells-per-task 2/' "$T/example.sh" >"$T/example_packed.sh"
+runner_start() {  # runner_start STUDY LOG SCRIPT: a block in the background, in a process group of its own ($runner)
+  setsid bash -c 'cd "$0" && STUDY=$1 PARTITION=study exec bash -e "$2"' "$HERE" "$1" "$3" 2>"$2" &
   runner=$!
 }
 runner_python() { pgrep -g "$runner" -f scripts/study.py | head -1; }
-cell_of_task() {  # cell_of_task STUDY JOBID_TASK: the run directory of the task's first cell
+cell_of_task() {  # cell_of_task STUDY JOBID_TASK: the run directory of the task's cell that has not ended yet
   /usr/bin/python3 - "$@" <<'PY'
-import json, sys
+import json, os, sys
 job, index = sys.argv[2].split("_")
 with open(json.load(open(sys.argv[1] + "/slurm/jobs.json"))[job]) as f:
-    print(json.load(f)["tasks"][int(index)][0]["run_dir"])
+    print(next(c["run_dir"] for c in json.load(f)["tasks"][int(index)]
+               if not os.path.exists(c["run_dir"] + "/slurm_exit")))
 PY
 }
 
@@ -106,7 +109,7 @@ same_as_local "$T/slurm"
 echo "ok: 5 knowledge bases equal field by field to the local backend's, and the same report/cells.csv"
 
 # ---- 2. a node dies while its cell runs; the runner died before it ----
-runner_start "$T/failure" "$T/failure1.log"
+runner_start "$T/failure" "$T/failure1.log" "$T/example_packed.sh"
 victim=""
 for ((i = 0; i < 120; i++)); do
   [[ -z "$victim" ]] || break
@@ -122,7 +125,7 @@ wait "$runner" 2>/dev/null || true
 runner=""
 slurm_node_kill n2
 echo "ok: killed the runner, then node n2 (slurmd, job step, roslaunch) while $(basename "$victim") ran there (task $task)"
-runner_start "$T/failure" "$T/failure2.log"
+runner_start "$T/failure" "$T/failure2.log" "$T/example_packed.sh"
 for ((i = 0; i < 120; i++)); do
   grep -q "failed (.*); once more" "$T/failure2.log" && break
   sleep 1
@@ -140,7 +143,7 @@ slurm_wait_idle || fail "n2 did not come back after its slurmd started again"
 echo "ok: n2 back in service"
 
 # ---- 3. SIGTERM cancels the arrays ----
-runner_start "$T/cancel" "$T/cancel.log"
+runner_start "$T/cancel" "$T/cancel.log" "$T/example.sh"
 for ((i = 0; i < 60; i++)); do
   [[ -n $(squeue -h -n xpersif-study-cancel 2>/dev/null) ]] && break
   sleep 0.5
