@@ -5,6 +5,8 @@
                           [--budget B] [--goals G] [--world FILE] [--out DIR] [--jobs J] [--evaluation-size M]
                           [--evaluation-objects a,b] [--evaluation-seed S] [--every K]
                           [--param component.name=value]... [--timeout SECONDS] [--report-only]
+                          [--backend local|slurm] [--partition P] [--time T] [--mem M] [--cells-per-task K]
+                          [--sbatch-arg ARG]...
 
 Every cell (design, seed) is one experiment file (OUT/experiments/) run by `roslaunch xpersif experiment.launch`
 on a master of its own, into its own run directory (OUT/cells/DESIGN-seedNNN/), as many at once as --jobs
@@ -16,6 +18,8 @@ report's primary measure is study_measures.py's.
 A study that was interrupted resumes when run again with the same OUT: finished cells (status 0 and their curve)
 are skipped, unfinished ones are run again from scratch. The report (OUT/report/) comes from the knowledge bases
 and run directories alone: `--report-only` writes it again.
+`--backend slurm` runs the cells as Slurm job arrays instead (scripts/study_slurm.py, doc/slurm.md): OUT must be on a
+filesystem the nodes share.
 """
 
 import argparse
@@ -68,7 +72,9 @@ def parse_args(argv):
     p.add_argument("--world", default=os.path.join(REPO, "worlds", "structured.yaml"),
                    help="the world file (default: the default experiment's, worlds/structured.yaml)")
     p.add_argument("--out", default=None, help="the study's directory (default studies/<time>)")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="cells at once (default: the cores)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="cells at once (default: the cores; slurm: at most this many tasks of an array at once, "
+                        "default no limit)")
     p.add_argument("--evaluation-size", type=int, default=None,
                    help="pushes of the held-out evaluation set (default 30 per evaluation object)")
     p.add_argument("--evaluation-objects", default=None,
@@ -78,7 +84,17 @@ def parse_args(argv):
     p.add_argument("--param", action="append", default=[], help="component.name=value for every run")
     p.add_argument("--timeout", type=float, default=None, help="seconds per cell (default 240 + 10 per experiment)")
     p.add_argument("--report-only", action="store_true", help="only write the report from what is there")
+    p.add_argument("--backend", choices=("local", "slurm"), default="local",
+                   help="where the cells run: local (--jobs at once on this machine, the default) or slurm (job "
+                        "arrays; doc/slurm.md)")
+    p.add_argument("--partition", help="slurm: the partition (sbatch --partition)")
+    p.add_argument("--time", help="slurm: each array task's time limit (sbatch --time, e.g. 0:30:00)")
+    p.add_argument("--mem", help="slurm: each array task's memory (sbatch --mem, e.g. 1G)")
+    p.add_argument("--cells-per-task", type=int, default=1, help="slurm: cells one array task runs in turn (default 1)")
+    p.add_argument("--sbatch-arg", action="append", default=[],
+                   help="slurm: one more sbatch option, e.g. --sbatch-arg=--account=lab (repeatable)")
     a = p.parse_args(argv)
+    check_backend(a)
     if a.seed_list:
         try:
             a.seed_list = [int(s) for s in a.seed_list.split(",") if s.strip()]
@@ -98,6 +114,9 @@ def parse_args(argv):
         fail("--budget is %d; it must be in 1..100000" % a.budget)
     if a.goals < 0 or a.goals > 10000:
         fail("--goals is %d; it must be in 0..10000" % a.goals)
+    a.array_limit = a.jobs  # slurm: sbatch --array=...%J when --jobs is given
+    if a.jobs is None:
+        a.jobs = os.cpu_count() or 1
     if a.jobs < 1:
         fail("--jobs is %d; it must be at least 1" % a.jobs)
     if a.evaluation_size is not None and a.evaluation_size < 1:
@@ -125,6 +144,19 @@ def parse_args(argv):
         params.setdefault(m.group(1), {})[m.group(2)] = yaml.safe_load(m.group(3))
     a.params = params
     return a
+
+
+def check_backend(a):
+    if a.cells_per_task < 1:
+        fail("--cells-per-task is %d; it must be at least 1" % a.cells_per_task)
+    if a.backend == "slurm" and not shutil.which("sbatch"):
+        fail("--backend slurm: sbatch is not on the PATH; run the study where Slurm's client commands are (a login "
+             "node; Debian: slurm-client)")
+    if a.backend == "local":
+        given = [o for o, v in (("--partition", a.partition), ("--time", a.time), ("--mem", a.mem),
+                                ("--cells-per-task", a.cells_per_task != 1), ("--sbatch-arg", a.sbatch_arg)) if v]
+        if given:
+            fail("%s %s only for --backend slurm" % (", ".join(given), "is" if len(given) == 1 else "are"))
 
 
 def world_objects(world_file):
@@ -316,6 +348,42 @@ def stop(cell):
             pass
 
 
+class LocalCells:
+    """The cells on this machine, --jobs at once (the default backend; study_slurm.SlurmCells is the other): start
+    a cell, submit (nothing to do here), poll its exit code, stop the running ones."""
+
+    def __init__(self, args):
+        self.slots, self.timeout = args.jobs, args.timeout
+
+    def adopt(self, cells):
+        return []  # a cell of an earlier runner ended with it
+
+    def start(self, cell):
+        start(cell)
+
+    def submit(self):
+        pass
+
+    def poll(self, cell):
+        code = cell.process.poll()
+        if code is None and time.time() - cell.started > self.timeout:
+            stop(cell)
+            cell.outcome = (1, "timed out after %d s" % self.timeout)
+            code = 1
+        return code
+
+    def stop(self, cells):
+        for cell in cells:
+            stop(cell)
+
+
+def backend_for(args):
+    if args.backend == "slurm":
+        import study_slurm  # scripts/, beside this file
+        return study_slurm.SlurmCells(args)
+    return LocalCells(args)
+
+
 PROGRESS = re.compile(r": experiment (\d+) of (\d+)")
 
 
@@ -384,6 +452,12 @@ def curve(cell, args, evaluation):
     return ""
 
 
+def failure_of(args, cell, status):
+    """Why a cell failed: its own status; under Slurm, what the backend found (it holds the status and Slurm's word)."""
+    first = (cell.outcome, status) if args.backend == "slurm" else (status, cell.outcome)
+    return first[0] or first[1] or (1, "ended without an outcome; see %s/console.log" % cell.run_dir)
+
+
 def run_cells(args, cells):
     evaluation = cells[0]
     todo = [c for c in cells if not (c.finished() and (c is evaluation or os.path.exists(os.path.join(c.run_dir, "curve.csv"))))]
@@ -394,13 +468,16 @@ def run_cells(args, cells):
         print("study: resuming %s: %d of %d cells already finished" % (args.out, len(finished_cells), len(cells)),
               file=sys.stderr)
     progress = Progress(total, skipped)
-    running, failed = [], []
+    failed = []
     moving_cache = None  # the oracle's objects (moving_from), once the evaluation set is done
     need_curve = [c for c in todo if c is not evaluation]
     queue = list(todo)
     # Cells whose run finished before the evaluation set: their curves wait for it.
     waiting_curve = [c for c in need_curve if c.finished()]
     queue = [c for c in queue if c not in waiting_curve]
+    backend = backend_for(args)
+    running = backend.adopt(queue)  # cells an earlier runner submitted that still run (Slurm)
+    queue = [c for c in queue if c not in running]
 
     def interrupted(signum, frame):
         raise KeyboardInterrupt
@@ -409,7 +486,7 @@ def run_cells(args, cells):
     try:
         # Cells that ran but have no curve yet (a study stopped between a run's end and its curve) are curved too.
         while queue or running or (waiting_curve and evaluation in finished_cells):
-            while len(running) < args.jobs:
+            while len(running) < backend.slots:
                 ready = [c for c in queue if not c.waits_for_evaluation or evaluation in finished_cells]
                 if not ready and evaluation in failed:  # the oracle's objects come from the evaluation set
                     ready = [c for c in queue if c.waits_for_evaluation]
@@ -428,15 +505,12 @@ def run_cells(args, cells):
                         failed.append(cell)
                         continue
                     arm_file(args, cell, moving)
-                start(cell)
+                backend.start(cell)
                 running.append(cell)
+            backend.submit()
             time.sleep(1.0)
             for cell in list(running):
-                code = cell.process.poll()
-                if code is None and time.time() - cell.started > args.timeout:
-                    stop(cell)
-                    cell.outcome = (1, "timed out after %d s" % args.timeout)
-                    code = 1
+                code = backend.poll(cell)
                 if code is None:
                     continue
                 running.remove(cell)
@@ -448,11 +522,11 @@ def run_cells(args, cells):
                     else:
                         waiting_curve.append(cell)
                 elif cell.attempts < 2:
-                    print("\nstudy: %s failed (%s); once more" % (cell.name, (status or cell.outcome or (1, "no status"))[1]),
+                    print("\nstudy: %s failed (%s); once more" % (cell.name, failure_of(args, cell, status)[1]),
                           file=sys.stderr)
                     queue.append(cell)
                 else:
-                    cell.outcome = status or cell.outcome or (1, "ended without an outcome; see %s/console.log" % cell.run_dir)
+                    cell.outcome = failure_of(args, cell, status)
                     failed.append(cell)
             if evaluation in finished_cells:
                 for cell in list(waiting_curve):
@@ -469,8 +543,7 @@ def run_cells(args, cells):
     except KeyboardInterrupt:
         print("\nstudy: interrupted; stopping %d running cells (run the same command again to resume)" % len(running),
               file=sys.stderr)
-        for cell in running:
-            stop(cell)
+        backend.stop(running)
         sys.exit(130)
     if evaluation not in finished_cells:
         for cell in waiting_curve:
@@ -1073,9 +1146,11 @@ def main(argv):
     cells = plan(args, eval_objects)
     if args.report_only and not any(cell.finished() for cell in cells):
         fail("--report-only: no cell of the study in %s has finished; there is nothing to report" % args.out, 3)
-    print("study: %s: %d designs x %d seeds x %d experiments, evaluation set %d pushes of %s; %d at once" % (
+    print("study: %s: %d designs x %d seeds x %d experiments, evaluation set %d pushes of %s; %s" % (
         args.out, len(args.designs), len(args.seed_list), args.budget, args.evaluation_size, ", ".join(eval_objects),
-        args.jobs), file=sys.stderr)
+        "through Slurm, %d cells per array task%s" % (args.cells_per_task, ", at most %d tasks at once" % args.jobs
+                                                        if args.array_limit else "") if args.backend == "slurm" else
+        "%d at once" % args.jobs), file=sys.stderr)
     failed = [] if args.report_only else run_cells(args, cells)
     path = report(args, cells, eval_objects, eval_why)
     print("study: report in %s" % path, file=sys.stderr)
