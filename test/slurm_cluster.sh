@@ -12,6 +12,9 @@
 # cgroup hierarchy).
 
 SLURM_NS_PREFIX="xslurm$$"
+# The daemons listen on every address: scripts/env.sh's bind-address preload (LD_PRELOAD, for ROS nodes) would pin
+# them to ROS_IP (127.0.0.1), where the nodes in their namespaces cannot reach the controller, nor it them.
+SLURM_DAEMON_ENV="env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS"
 SLURM_PIDS=()
 
 slurm_conf() {
@@ -72,7 +75,7 @@ slurm_network() {
 slurm_node_start() {
   local node=$1
   mkdir -p "$SLURM_DIR/spool/$node"
-  nsenter --net="/var/run/netns/${SLURM_NS_PREFIX}$node" slurmd -D -f "$SLURM_CONF" -N "$node" \
+  nsenter --net="/var/run/netns/${SLURM_NS_PREFIX}$node" $SLURM_DAEMON_ENV slurmd -D -f "$SLURM_CONF" -N "$node" \
     >>"$SLURM_DIR/slurmd-$node.out" 2>&1 &
   SLURM_PIDS+=($!)
   disown $!  # a node killed on purpose is no news to the shell
@@ -108,7 +111,7 @@ slurm_cluster_start() {
   export SLURM_CONF="$SLURM_DIR/slurm.conf"
   slurm_conf "$SLURM_DIR" >"$SLURM_CONF"
   slurm_network
-  slurmctld -D -i -f "$SLURM_CONF" >"$SLURM_DIR/slurmctld.out" 2>&1 &
+  $SLURM_DAEMON_ENV slurmctld -D -i -f "$SLURM_CONF" >"$SLURM_DIR/slurmctld.out" 2>&1 &
   SLURM_PIDS+=($!)
   slurm_node_start n1
   slurm_node_start n2
