@@ -198,6 +198,8 @@ def dist(a, b):
     return math.hypot(a[0] - b[0], a[1] - b[1]) + 0.02 * abs(turn)
 
 
+goal_rows = {os.path.basename(d): rows(os.path.join(d, "curve_goals.csv"))
+             for d in glob.glob(os.path.join(study, "cells", "*"))}  # each cell's file, read once
 for o in moving:
     outs = [(r[2], r[3], r[4]) for r in ev_moves if r[0] == o]
     if len(outs) < 2:
@@ -205,18 +207,17 @@ for o in moving:
     want_random = sum(sum(dist(outs[i], t) for i in range(len(outs)) if i != j) / (len(outs) - 1)
                       for j, t in enumerate(outs)) / len(outs)
     want_best = sum(min(dist(outs[i], t) for i in range(len(outs)) if i != j) for j, t in enumerate(outs)) / len(outs)
-    for cell_dir in glob.glob(os.path.join(study, "cells", "*")):
-        for r in rows(os.path.join(cell_dir, "curve_goals.csv")):
-            if r["object"] == o:
-                check(close(r["random_choice"], want_random, 1e-5) and close(r["best_choice"], want_best, 1e-5),
-                      "%s/curve_goals.csv %s: random and best choice %s %s, recomputed %s %s" % (
-                          cell_dir, o, r["random_choice"], r["best_choice"], want_random, want_best))
-                break
+    for cell_name, cell_rows in goal_rows.items():
+        r = next((r for r in cell_rows if r["object"] == o), None)
+        if r:
+            check(close(r["random_choice"], want_random, 1e-5) and close(r["best_choice"], want_best, 1e-5),
+                  "%s/curve_goals.csv %s: random and best choice %s %s, recomputed %s %s" % (
+                      cell_name, o, r["random_choice"], r["best_choice"], want_random, want_best))
 competence = {(r["design"], int(r["seed"])): r for r in rows(os.path.join(report, "competence.csv"))}
 check(set(competence) == set(object_curves), "competence.csv has cells %s" % sorted(competence))
 for (design, seed), r in competence.items():
     goal = {}
-    for g in rows(os.path.join(study, "cells", "%s-seed%03d" % (design, seed), "curve_goals.csv")):
+    for g in goal_rows["%s-seed%03d" % (design, seed)]:
         goal.setdefault(g["object"], {})[int(g["experiments"])] = float(g["goal_error"])
     last = max(set.intersection(*(set(goal[o]) for o in moving)))
     want = sum(goal[o][last] for o in moving) / len(moving)

@@ -259,10 +259,7 @@ void Supervisor::onDeactivate() {
   stopMonitor();
   for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
     if (lastKnownState(it->name) != LifecycleState::Active) continue;
-    if (!managerAnswers(it->manager)) {  // it went with its manager: nothing to ask, nothing to wait ~startup_timeout for
-      ROS_WARN_STREAM(name() << ": manager " << it->manager << " is gone; " << it->name << " went with it");
-      continue;
-    }
+    if (wentWithItsManager(*it)) continue;
     try {
       requestTransition(*it, LifecycleTransition::Deactivate);
     } catch (const std::exception& e) {
@@ -277,10 +274,7 @@ void Supervisor::onShutdown() {
   // would have to answer; the components are left to their managers.
   if (halting() || !ros::ok()) return;
   for (auto it = components_.rbegin(); it != components_.rend(); ++it) {
-    if (!managerAnswers(it->manager)) {  // it went with its manager: nothing to ask, nothing to wait ~startup_timeout for
-      ROS_WARN_STREAM(name() << ": manager " << it->manager << " is gone; " << it->name << " went with it");
-      continue;
-    }
+    if (wentWithItsManager(*it)) continue;
     try {
       requestTransition(*it, LifecycleTransition::Shutdown);
     } catch (const std::exception& e) {
@@ -301,6 +295,12 @@ void Supervisor::stopMonitor() {
   monitoring_ = false;
   if (monitor_thread_.joinable()) monitor_thread_.join();
   setBringUp(BringUp::Idle, "");
+}
+
+bool Supervisor::wentWithItsManager(const SupervisedComponent& component) const {
+  if (managerAnswers(component.manager)) return false;
+  ROS_WARN_STREAM(name() << ": manager " << component.manager << " is gone; " << component.name << " went with it");
+  return true;
 }
 
 bool Supervisor::managerAnswers(const std::string& manager) const {

@@ -128,6 +128,9 @@ class Supervisor : public Component {
   void monitorLoop();
   void stopMonitor();
   bool managerAnswers(const std::string& manager) const;
+  /// True (and said in the log) when @p component's manager is gone, and the component with it: nothing to ask it,
+  /// and no ~startup_timeout to wait for its services (deactivate, shutdown).
+  bool wentWithItsManager(const SupervisedComponent& component) const;
   void supervisionEvent(const std::string& name, const std::string& outcome, const std::string& reason);
   enum class BringUp { Idle, Running, Done, Failed };
   static constexpr int kBringUpAttempts = 3;  // per component, when its manager dies while it is being started
