@@ -54,7 +54,7 @@ manager_pids() {  # manager_pids M1+M2: the pids of those managers of this take'
   for manager_name in $(tr '+' ' ' <<<"$1"); do
     manager=""
     for pid in $(pgrep -f "__name:=$manager_name" || true); do
-      tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && manager=$pid
+      tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -x "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" >/dev/null && manager=$pid
     done
     [ -n "$manager" ] || { echo "determinism: no $manager_name process to interrupt" >&2; return 1; }
     pids="$pids $manager"
@@ -198,7 +198,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
       local pids="$launch" pid
       for pid in $(pgrep -f "ros|nodelet|xpersif" || true); do
         [ "$pid" = "$$" ] || [ "$pid" = "$runner" ] && continue  # the client must notice by itself
-        tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" && pids="$pids $pid"
+        tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -x "ROS_MASTER_URI=${ROS_MASTER_URI%/}/\?" >/dev/null && pids="$pids $pid"
       done
       kill -KILL $pids 2>/dev/null || true
       wait "$launch" 2>/dev/null || true

@@ -56,7 +56,7 @@ start_view() {  # view.launch, then its rviz window and 10 s for software GL, ma
     >>"$work/view.log" 2>&1 &
   view=$!
   for _ in $(seq 1 90); do
-    xwininfo -root -tree 2>/dev/null | grep -qi rviz && break
+    xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null && break
     sleep 1
   done
   sleep 10
@@ -64,12 +64,12 @@ start_view() {  # view.launch, then its rviz window and 10 s for software GL, ma
 start_view
 # rviz under software GL has once died within seconds of showing its window (an all-black shot): once, start the
 # view again; a second time is a failure, with rviz's own words.
-if ! xwininfo -root -tree 2>/dev/null | grep -qi rviz; then
+if ! xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null; then
   echo "rviz's window is gone or never came; starting the view once more"
   stop "$view"
   start_view
 fi
-if ! xwininfo -root -tree 2>/dev/null | grep -qi rviz; then
+if ! xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null; then
   tail -30 "$work/view.log"
   echo "FAIL: rviz's window did not appear, twice"
   exit 1

@@ -30,7 +30,7 @@ roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersim.launch rviz:=true rviz_conf
 launch=$!
 # Software GL is slow to start: wait until rviz has a window, then a little for markers and the robot.
 for _ in $(seq 1 90); do
-  xwininfo -root -tree 2>/dev/null | grep -qi rviz && break
+  xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null && break
   sleep 1
 done
 sleep 12

@@ -83,7 +83,7 @@ slurm_time=$((SECONDS - started))
 echo "ok: the guide's Slurm example ran in $slurm_time s"
 grep -q "study \[" "$T/slurm.log" || { cat "$T/slurm.log"; fail "no progress line"; }
 for node in n1 n2; do
-  cat "$T/slurm/slurm/"*.out | grep -q "on $node$" || fail "no task ran on $node: $(cat "$T/slurm/slurm/"*.out)"
+  grep -qh "on $node$" "$T/slurm/slurm/"*.out || fail "no task ran on $node: $(cat "$T/slurm/slurm/"*.out)"
 done
 [[ $(grep -c . "$T/slurm/slurm/jobs.json") -ge 3 ]] || fail "no job recorded in jobs.json"
 echo "ok: tasks ran on n1 and n2 ($(grep -c "roslaunch exited 0" "$T/slurm/slurm/"*.out | awk -F: '{s += $2} END {print s}') cells)"
