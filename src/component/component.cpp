@@ -292,10 +292,11 @@ CommandOutcome Component::invoke(InvokeServer::Context& context, InvokeResult& r
   return outcome;
 }
 
-std::string Component::whyNotActive(const std::string& what) const {
+std::string Component::whyNotIn(const std::string& what, bool active_only) const {
   const LifecycleState state = lifecycle_.state();
-  if (state == LifecycleState::Active) return "";
-  std::string reason = what + " needs component " + name_ + " ACTIVE, but it is " + toString(state);
+  if (state == LifecycleState::Active || (!active_only && state == LifecycleState::Inactive)) return "";
+  std::string reason = what + " needs component " + name_ + (active_only ? " ACTIVE" : " configured (INACTIVE or ACTIVE)") +
+                       ", but it is " + toString(state);
   if (state == LifecycleState::Error) reason += " (" + lifecycle_.lastError() + ")";
   return reason;
 }

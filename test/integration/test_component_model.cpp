@@ -15,6 +15,7 @@
 #include "xpersif/GetContracts.h"
 #include "xpersif/GetState.h"
 #include "xpersif/GetSummary.h"
+#include "xpersif/SelectFeatures.h"
 #include "xpersif/core/common/validation.h"
 
 using xpersif::ComponentEvent;
@@ -62,6 +63,7 @@ class ComponentModel : public ::testing::Test {
   void SetUp() override {
     ASSERT_TRUE(ros::service::waitForService("/counter/get_state", ros::Duration(30.0)));
     ASSERT_TRUE(ros::service::waitForService("/statistics/get_state", ros::Duration(30.0)));
+    ASSERT_TRUE(ros::service::waitForService("/feature_selection/get_state", ros::Duration(30.0)));
   }
   ros::NodeHandle nh_;
 };
@@ -291,6 +293,24 @@ TEST_F(ComponentModel, OperationsNeedAnActiveComponent) {
   EXPECT_EQ(r.code, xpersif::ResultCode::NOT_ACTIVE);
   EXPECT_NE(r.message.find("operation 'add_values' needs component /counter ACTIVE"), std::string::npos) << r.message;
   ensureActive("/counter");
+}
+
+// An operation offered while INACTIVE (FEATURESELECTION's select_features) is still refused before configure: an
+// UNCONFIGURED component would answer from parameters it has not read (a restarted FEATURESELECTION once answered
+// "the feature selection is empty"). NOT_ACTIVE, so that a patient caller waits for the configure.
+TEST_F(ComponentModel, OperationsOfferedWhileInactiveNeedAConfiguredComponent) {
+  ASSERT_EQ(stateOf("/feature_selection"), ComponentStatus::UNCONFIGURED);
+  xpersif::SelectFeatures select;  // no names: back to the initial selection
+  ASSERT_TRUE(ros::service::call("/feature_selection/select_features", select));
+  EXPECT_FALSE(select.response.success);
+  EXPECT_EQ(select.response.code, xpersif::ResultCode::NOT_ACTIVE);
+  EXPECT_NE(select.response.message.find("needs component /feature_selection configured"), std::string::npos)
+      << select.response.message;
+  ASSERT_TRUE(transition("/feature_selection", "configure").success);
+  select = xpersif::SelectFeatures();
+  ASSERT_TRUE(ros::service::call("/feature_selection/select_features", select));
+  EXPECT_TRUE(select.response.success) << select.response.message;
+  EXPECT_FALSE(select.response.selected.empty());
 }
 
 TEST_F(ComponentModel, ContractsCanBeReadThroughAnOperation) {

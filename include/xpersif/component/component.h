@@ -118,7 +118,9 @@ class Component {
   virtual void fillStatus(ComponentStatus& status) { (void)status; }
 
   /// "" when the component is ACTIVE, else the sentence saying that @p what needs it ACTIVE.
-  std::string whyNotActive(const std::string& what) const;
+  std::string whyNotActive(const std::string& what) const { return whyNotIn(what, true); }
+  /// "" when the component is configured (INACTIVE or ACTIVE), else the sentence saying that @p what needs that.
+  std::string whyNotConfigured(const std::string& what) const { return whyNotIn(what, false); }
 
   /// True while halt() runs: the process or nodelet is going away, so skip calls to other nodes.
   bool halting() const { return halting_; }
@@ -130,7 +132,8 @@ class Component {
    * @brief Offer an operation (a service that answers at once) under the component's private namespace.
    *
    * The response type must have `bool success` and `string message`. The call is refused (success false,
-   * message says why, nothing changed) when the component is not ACTIVE and @p requires_active is set,
+   * message says why, code NOT_ACTIVE, nothing changed) when the component is not ACTIVE and @p requires_active is
+   * set, or not configured at all (UNCONFIGURED, FINALIZED, ERROR: it would answer from parameters it has not read),
    * when @p validate throws, or when a precondition of @p contract fails. A @p handle that throws reports
    * failure with the exception's text; handlers validate before they change anything. The effects of a call
    * that succeeded are grounded from the request's bindings and, for parameters that only the answer knows (what
@@ -162,6 +165,7 @@ class Component {
   void publishStatus();
 
  private:
+  std::string whyNotIn(const std::string& what, bool active_only) const;
   using InvokeServer = CommandServer<InvokeAction>;
   /// Runs one invocable interface: binds (throwing ValidationError), then calls unless the goal only checks.
   using InvokeRunner = std::function<CommandOutcome(InvokeServer::Context&, const core::Invocation&, InvokeResult&)>;
@@ -249,7 +253,8 @@ void Component::addOperation(ContractChecker<typename Service::Request> contract
   auto call = [this, checker, validate, handle, requires_active, op, result_bindings](
                   const Request& request, Response& response, std::vector<std::string>* effects) {
     const ros::Time started = ros::Time::now();
-    std::string refusal = requires_active ? whyNotActive("operation '" + op + "'") : "";
+    const std::string what = "operation '" + op + "'";
+    std::string refusal = requires_active ? whyNotActive(what) : whyNotConfigured(what);
     std::uint8_t code = refusal.empty() ? ResultCode::OK : ResultCode::NOT_ACTIVE;
     if (refusal.empty() && validate) {
       try {
