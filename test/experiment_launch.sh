@@ -94,6 +94,12 @@ case "$version" in "$expected_version"*) ;; *) fail "code version '$version' in 
 stored=$(sql "$A/knowledge.db" "SELECT DISTINCT json_extract(parameters, '$.provenance.experiment.world') || ' ' || json_extract(parameters, '$.provenance.experiment.run_dir') FROM runs")
 [ "$stored" = "$A/world.yaml $A" ] || fail "the runs' provenance names '$stored'"
 grep -q "^code_version: \"$version\"" "$A/provenance.yaml" || fail "provenance.yaml lacks the code version"
+# The report's measures (doc/studies.md): with an object that moved, the primary measure and competence, a row per design.
+if ! grep -q "^No object of the evaluation set moved" "$A/report.md"; then
+  for section in "## Which design did better" "## Competence: one-push goals"; do
+    sed -n "/^$section/,/^## [^CW]/p" "$A/report.md" | grep -q "^| curiosity | " || fail "report.md: no '$section' row for curiosity"
+  done
+fi
 ok "short experiment: exit 0, report, runs $runs, $experiments experiments, code version $version"
 
 # ---- 2b. a failure after roslaunch read the file is in the status file (roslaunch itself exits 0) ----

@@ -6,7 +6,8 @@
 // scripts/plot_learning_curve.py with matplotlib, as the study report's figures are): the prediction
 // error on the evaluation run's experiments against the number of experiments learned from, for each design
 // run (the latest run of each name), the designs compared on the studies' primary measure (doc/studies.md) with
-// what one seed can and cannot say, the experiments each design needed to reach the error random design ends
+// what one seed can and cannot say, the competence at one-push goals after ¼, ½ and all of the run beside a
+// chooser at random and the best one, the experiments each design needed to reach the error random design ends
 // with (secondary), the notions learned, and the goal-directed pushes' success.
 //
 // Exit codes as every tool of the package (core/command_line.h, doc/exit-codes.md): 0 written, 1 the report
@@ -326,6 +327,57 @@ void describeDesigns(const Curves& curves, std::ostream& md) {
         "is real.\n";
 }
 
+/// A number for a table cell: four decimals, or a dash where there is none.
+std::string cell(double value, int precision = 4) {
+  if (!std::isfinite(value)) return "—";
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(precision) << value;
+  return out.str();
+}
+
+/// Competence at one-push goals (core::oneShotGoalErrors, doc/studies.md) after a quarter, half and all of each
+/// design's experiments, weighed over the same objects as the prediction error, beside two choosers that learn nothing.
+void describeCompetence(const Curves& curves, std::ostream& md) {
+  if (curves.moving.empty() || curves.curves.empty() || curves.curves.front().experiments.empty()) return;
+  const int budget = curves.curves.front().experiments.back();
+  const int at[3] = {std::max(1, (budget + 3) / 4), std::max(1, (budget + 1) / 2), budget};
+  md << "\n## Competence: one-push goals\n\nFor each evaluation push's outcome as a target, the model picks the object's "
+        "evaluation push it predicts closest to it; the error is how far that push's measured outcome is from the "
+        "target (m), averaged over the same objects as above. Lower is better.\n\n"
+     << "| design | after " << at[0] << " | after " << at[1] << " | after " << at[2] << " | ratio to random (all) |\n"
+     << "|---|---|---|---|---|\n";
+  std::map<std::string, double> at_end;
+  for (const auto& c : curves.curves) {
+    const std::vector<double> goal = balancedGoalError(c, curves.moving);
+    at_end[c.name] = valueAt(c.experiments, goal, at[2]);
+  }
+  const bool has_random = at_end.count("random") && std::isfinite(at_end["random"]) && at_end["random"] > 0;
+  for (const auto& c : curves.curves) {
+    const std::vector<double> goal = balancedGoalError(c, curves.moving);
+    md << "| " << c.name;
+    for (int k : at) md << " | " << cell(valueAt(c.experiments, goal, k));
+    md << " | " << (has_random ? cell(at_end[c.name] / at_end["random"], 3) : "—") << " |\n";
+  }
+  double random_choice = 0, best_choice = 0;
+  int counted = 0;
+  for (const auto& object : curves.moving) {
+    const auto& references = curves.curves.front().object_goal_random_best;
+    if (const auto it = references.find(object); it != references.end()) {
+      random_choice += it->second.first;
+      best_choice += it->second.second;
+      ++counted;
+    }
+  }
+  if (counted == 0) {
+    md << "\nNo object counted has two evaluation pushes, so no one-push goal can be judged (a dash).\n";
+    return;
+  }
+  md << "\nWithout learning: picking a push at random gives " << cell(random_choice / counted)
+     << " m; picking the best push the evaluation set holds, " << cell(best_choice / counted)
+     << " m (the floor). A design near the first has learned little it can act on; as above, one seed per design "
+        "cannot rank designs.\n";
+}
+
 /// How many experiments each design needed to reach the error random design ends with (secondary: one crossing
 /// of two noisy curves; chance alone often gives "never").
 void describeReach(const std::vector<LearningCurve>& curves, std::ostream& md) {
@@ -417,6 +469,7 @@ std::string buildReport(KnowledgeBase& kb, const Options& options, const std::ve
     md << "- " << c.name << ": " << curves.failed.at(c.name) << " experiments failed (not learned from)\n";
   }
   describeDesigns(curves, md);
+  describeCompetence(curves, md);
   describeReach(curves.curves, md);
   describeFeatures(kb, runs, options, md);
   describeNotions(kb, runs, options, md);

@@ -100,6 +100,16 @@ TEST(Evaluation, OnlyObjectsThatMoveAreWeighedAndEachEqually) {
   const auto balanced = balancedError(curve, {"cube", "bar"});
   EXPECT_NEAR(balanced[0], 0.03, 1e-12);
   EXPECT_NEAR(balanced[2], 0.01, 1e-12);
+  curve.object_goal_error = {{"cube", {0.03, 0.01, 0.01}}, {"bar", {0.05, 0.03}}};  // bar lacks its last point
+  const auto goal = balancedGoalError(curve, {"cube", "bar"});
+  EXPECT_NEAR(goal[0], 0.04, 1e-12);
+  EXPECT_NEAR(goal[2], 0.01, 1e-12);  // the objects that have the point
+  EXPECT_TRUE(std::isnan(balancedGoalError(curve, {"block"})[1]));
+  // After k experiments: the first checkpoint at or after k, the last one past the end.
+  EXPECT_DOUBLE_EQ(valueAt(curve.experiments, goal, 5), goal[1]);
+  EXPECT_DOUBLE_EQ(valueAt(curve.experiments, goal, 10), goal[1]);
+  EXPECT_DOUBLE_EQ(valueAt(curve.experiments, goal, 99), goal[2]);
+  EXPECT_TRUE(std::isnan(valueAt({}, {}, 1)));
   // Constant error: the area is its log; log-linear from 0.04 to 0.01: the log of the geometric middle, 0.02.
   EXPECT_NEAR(logArea({0, 20, 40}, {0.02, 0.02, 0.02}), std::log(0.02), 1e-12);
   EXPECT_NEAR(logArea({0, 20, 40}, {0.04, 0.02, 0.01}), std::log(0.02), 1e-12);

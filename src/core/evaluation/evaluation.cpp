@@ -179,14 +179,15 @@ std::vector<std::string> movingObjects(const std::vector<PushSample>& evaluation
   return moving;
 }
 
-std::vector<double> balancedError(const LearningCurve& curve, const std::vector<std::string>& objects) {
+std::vector<double> balancedOver(const std::map<std::string, std::vector<double>>& per_object, std::size_t points,
+                                 const std::vector<std::string>& objects) {
   std::vector<double> out;
-  for (std::size_t i = 0; i < curve.experiments.size(); ++i) {
+  for (std::size_t i = 0; i < points; ++i) {
     double sum = 0;
     int counted = 0;
     for (const auto& object : objects) {
-      const auto it = curve.object_error.find(object);
-      if (it == curve.object_error.end() || i >= it->second.size()) continue;
+      const auto it = per_object.find(object);
+      if (it == per_object.end() || i >= it->second.size()) continue;
       sum += it->second[i];
       ++counted;
     }
@@ -204,6 +205,15 @@ double logArea(const std::vector<int>& experiments, const std::vector<double>& e
     area += (experiments[i] - experiments[i - 1]) * 0.5 * (logOf(error[i - 1]) + logOf(error[i]));
   }
   return area / (experiments.back() - experiments.front());
+}
+
+double valueAt(const std::vector<int>& experiments, const std::vector<double>& values, int k) {
+  const std::size_t n = std::min(experiments.size(), values.size());
+  if (n == 0) return NAN;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (experiments[i] >= k) return values[i];
+  }
+  return values[n - 1];
 }
 
 int experimentsToReach(const LearningCurve& curve, double error) {

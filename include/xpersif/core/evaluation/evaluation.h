@@ -91,8 +91,21 @@ LearningCurve learningCurve(const std::string& name, const std::vector<PushSampl
 /// measure only dilutes the differences between designs (the same rule as scripts/study_measures.py).
 std::vector<std::string> movingObjects(const std::vector<PushSample>& evaluation, double share = 0.1);
 
-/// The curve's error averaged with equal weight over @p objects, at each of its k (NAN where none has a point).
-std::vector<double> balancedError(const LearningCurve& curve, const std::vector<std::string>& objects);
+/// Per-object values (one per k of a curve with @p points checkpoints) averaged with equal weight over @p objects,
+/// at each k (NAN where none has a point).
+std::vector<double> balancedOver(const std::map<std::string, std::vector<double>>& per_object, std::size_t points,
+                                 const std::vector<std::string>& objects);
+/// The curve's prediction error averaged that way.
+inline std::vector<double> balancedError(const LearningCurve& curve, const std::vector<std::string>& objects) {
+  return balancedOver(curve.object_error, curve.experiments.size(), objects);
+}
+/// The curve's one-push goal error (competence) averaged that way.
+inline std::vector<double> balancedGoalError(const LearningCurve& curve, const std::vector<std::string>& objects) {
+  return balancedOver(curve.object_goal_error, curve.experiments.size(), objects);
+}
+/// @p values at the first of @p experiments at or after @p k (the last one if none; NAN when empty): the figure
+/// "after k experiments" where the curve has checkpoints only (scripts/study_measures.py's error_at).
+double valueAt(const std::vector<int>& experiments, const std::vector<double>& values, int k);
 
 /// The mean of log(error) over the curve's span of k, by the trapezoid rule: the log of the curve's geometric-mean
 /// error over the budget. A design's ratio to another is exp(the difference of their areas).
