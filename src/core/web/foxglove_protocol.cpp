@@ -172,10 +172,11 @@ std::vector<FoxgloveChannel> FoxgloveProtocol::channels() const {
   return list;
 }
 
-// One pump waits on the network thread at a time: messages published meanwhile are coalesced into it.
+// One pump waits on the network thread at a time: messages published meanwhile are coalesced into it. Without
+// clients nothing is posted (a latched message waits in newest_ for the first one).
 void FoxgloveProtocol::postPump() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (pump_posted_) return;
+  if (pump_posted_ || client_count_ == 0) return;
   pump_posted_ = server_.post([this] { pump(); });
 }
 
@@ -214,6 +215,12 @@ void FoxgloveProtocol::offer(WebClientId client, std::uint32_t subscription, con
 
 void FoxgloveProtocol::opened(WebServer& server, WebClientId client) {
   clients_[client];
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // What was published while nobody listened is not news to the first client (latched channels are replayed).
+    if (client_count_ == 0) unsent_.clear();
+    client_count_ = clients_.size();
+  }
   server.send(client, dumpJson({{"op", "serverInfo"},
                                 {"name", name_},
                                 {"capabilities", {"time"}},
@@ -278,6 +285,8 @@ void FoxgloveProtocol::closed(WebServer&, WebClientId client) {
   if (it == clients_.end()) return;
   for (const auto& [channel, subscription] : it->second.id_of) countSubscriber(channel, -1);
   clients_.erase(it);
+  std::lock_guard<std::mutex> lock(mutex_);
+  client_count_ = clients_.size();
 }
 
 void FoxgloveProtocol::countSubscriber(std::uint32_t channel, int change) {

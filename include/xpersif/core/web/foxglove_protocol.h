@@ -124,6 +124,7 @@ class FoxgloveProtocol : public WebProtocol {
   bool time_unsent_ = false;
   bool pump_posted_ = false;
   std::map<std::uint32_t, std::size_t> subscriber_count_;
+  std::size_t client_count_ = 0;  // clients_.size(), for the threads that publish
 
   std::map<WebClientId, Subscriptions> clients_;  // network thread only
 };
