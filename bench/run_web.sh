@@ -3,7 +3,9 @@
 # bench/web_clients.cpp) at 30 Hz and at the simulator's full rate, in one run on one machine.
 #
 #   bash bench/run_web.sh [build_dir=build] [out_dir=bench/results/web-<date>]
-#   env: CLIENTS ("1 10 50 100"), RATES ("30 full"), DURATION (10), WARMUP (3), FRAME_RATE (1000)
+#   env: CLIENTS ("1 10 50 100"), RATES ("30 full"), DURATION (10), WARMUP (3), FRAME_RATE (1000),
+#        PROTOCOL (page; foxglove: the clients speak foxglove.websocket.v1 and subscribe to /tf, every message, with
+#        CLIENTS "1 8 32" and RATES "all" by default; see bench/foxglove.md)
 #
 # XPERSim runs the default world in fast mode, its frames capped at FRAME_RATE per wall second (the simulator's
 # full rate here); the bridge is a node of its own, read-only, port chosen at random. Per configuration: frames
@@ -13,9 +15,15 @@
 set -eo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 BUILD=$(cd "${1:-$HERE/../build}" && pwd)
-OUT=${2:-$HERE/results/web-$(date +%Y%m%d-%H%M%S)}
-CLIENTS=${CLIENTS-"1 10 50 100"}
-RATES=${RATES-"30 full"}
+OUT=${2:-$HERE/results/web-${PROTOCOL:-page}-$(date +%Y%m%d-%H%M%S)}
+PROTOCOL=${PROTOCOL:-page}
+if [[ "$PROTOCOL" == foxglove ]]; then
+  CLIENTS=${CLIENTS-"1 8 32"}
+  RATES=${RATES-"all"}
+else
+  CLIENTS=${CLIENTS-"1 10 50 100"}
+  RATES=${RATES-"30 full"}
+fi
 SECONDS_PER_RUN=${DURATION:-10}
 WARMUP=${WARMUP:-3}
 FRAME_RATE=${FRAME_RATE:-1000}
@@ -60,6 +68,7 @@ done
 URL="ws://127.0.0.1:$WEB_PORT/"
 {
   echo "{\"date\": \"$(date -u +%FT%TZ)\", \"host\": \"$(uname -n)\", \"cores\": $(nproc), \"frame_rate\": $FRAME_RATE," \
+       "\"protocol\": \"$PROTOCOL\"," \
        "\"seconds\": $SECONDS_PER_RUN, \"code\": \"$(git -C "$HERE/.." describe --always --dirty 2>/dev/null)\"}"
 } >"$OUT/meta.json"
 : >"$OUT/results.jsonl"
@@ -68,7 +77,7 @@ run() {  # N RATE
   /usr/bin/python3 "$HERE/web_probe.py" "$BRIDGE" "$SIM" "$WARMUP" "$SECONDS_PER_RUN" >"$OUT/probe.json" &
   probe=$!
   if (($1 > 0)); then
-    clients=$("$BIN/web_clients" "$URL" "$1" "$2" "$SECONDS_PER_RUN" "$WARMUP")
+    clients=$("$BIN/web_clients" "$URL" "$1" "$2" "$SECONDS_PER_RUN" "$WARMUP" "$PROTOCOL")
   fi
   wait "$probe"
   /usr/bin/python3 - "$1" "$2" "$clients" "$OUT/probe.json" >>"$OUT/results.jsonl" <<'PY'

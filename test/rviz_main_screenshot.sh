@@ -16,16 +16,7 @@ export ROS_LOG_DIR=$work/ros_log
 display=":$((90 + RANDOM % 100))"
 Xvfb "$display" -screen 0 1280x900x24 >"$work/xvfb.log" 2>&1 &
 xvfb=$!
-stop() {  # PID: SIGINT, then harder if roslaunch does not go
-  for signal in INT INT TERM KILL; do
-    kill -"$signal" "$1" 2>/dev/null || break
-    for _ in $(seq 1 50); do
-      kill -0 "$1" 2>/dev/null || break 2
-      sleep 0.2
-    done
-  done
-  wait "$1" 2>/dev/null || true
-}
+source "$repo/test/main_job.sh"  # stop PID
 cleanup() {
   [[ -n "${run:-}" ]] && stop "$run"
   [[ -n "${view:-}" ]] && stop "$view"

@@ -19,16 +19,7 @@ work=$(mktemp -d)
 keep=${WEB_SCREENSHOT_DIR:-/tmp/xpersif_web_screenshot}
 mkdir -p "$keep" "$work/page"
 export ROS_LOG_DIR=$work/ros_log
-stop() {  # PID: SIGINT, then harder if roslaunch does not go
-  for signal in INT INT TERM KILL; do
-    kill -"$signal" "$1" 2>/dev/null || break
-    for _ in $(seq 1 50); do
-      kill -0 "$1" 2>/dev/null || break 2
-      sleep 0.2
-    done
-  done
-  wait "$1" 2>/dev/null || true
-}
+source "$repo/test/main_job.sh"  # stop PID
 cleanup() {
   [[ -n "${run:-}" ]] && stop "$run"
   [[ -n "${main:-}" ]] && stop "$main"
@@ -40,19 +31,7 @@ port=${ROS_MASTER_URI##*:}
 roslaunch -p "$port" xpersif xpersif.launch world:="$world" database:="$work/knowledge.db" run_dir:="$work/run" \
   web:=true web_port:=0 >"$work/main.log" 2>&1 &
 main=$!
-if ! xpersif wait --timeout 180 /xpersif/loop_model >"$work/wait.log" 2>&1; then
-  cat "$work/wait.log"; tail -30 "$work/main.log"
-  echo "FAIL: the main job did not come up"; exit 1
-fi
-web_port=""
-for _ in $(seq 1 60); do
-  web_port=$(rosparam get /xpersif/web_bridge/bound_port 2>/dev/null || true)
-  [[ "$web_port" =~ ^[0-9]+$ && "$web_port" != 0 ]] && break
-  sleep 1
-done
-if ! [[ "$web_port" =~ ^[0-9]+$ ]]; then
-  tail -30 "$work/main.log"; echo "FAIL: the web bridge never listened"; exit 1
-fi
+wait_for_web_bridge "$work/main.log" || exit 1
 url="http://127.0.0.1:$web_port/"
 echo "the bridge serves $url"
 camera=$(/usr/bin/python3 "$repo/test/view_check.py" camera)

@@ -21,10 +21,12 @@
 #include "xpersif/RunLoopActionGoal.h"
 #include "xpersif/RunLoopFeedback.h"
 #include "xpersif/Scene.h"
+#include "xpersif/core/web/foxglove_protocol.h"
 #include "xpersif/core/web/web_page.h"
 #include "xpersif/core/web/web_server.h"
 #include "xpersif/core/web/web_stream_protocol.h"
 #include "xpersif/ros/conversions.h"
+#include "xpersif/web/foxglove_topics.h"
 
 namespace xpersif {
 
@@ -34,6 +36,11 @@ using json = nlohmann::json;
 
 core::WebPayload textPayload(const std::string& s) { return {std::make_shared<const std::string>(s), false}; }
 
+/// @p name under @p ns unless it is global.
+std::string underNamespace(const std::string& ns, const std::string& name) {
+  return !name.empty() && name.front() == '/' ? name : ns + "/" + name;
+}
+
 }  // namespace
 
 // The topics become the page's messages here; the core's WebServer and WebStreamProtocol carry them to the
@@ -42,8 +49,12 @@ struct WebBridge::Impl {
   explicit Impl(WebBridge& owner)
       : owner(owner),
         server([this](core::WebLogLevel level, const std::string& text) { log(level, text); }),
-        protocol(server, [this](const std::string& command) { return runCommand(command); }) {
+        protocol(server, [this](const std::string& command) { return runCommand(command); }),
+        foxglove(server, "xpersif WEBBRIDGE",
+                 [this](std::uint32_t channel, bool wanted) { foxglove_topics.interestChanged(channel, wanted); }),
+        foxglove_topics(foxglove, owner.name()) {
     server.addProtocol(protocol);
+    server.addProtocol(foxglove, core::kFoxgloveSubprotocol);
   }
 
   WebBridge& owner;
@@ -57,6 +68,7 @@ struct WebBridge::Impl {
   std::string web_root;
   std::string experiment_progress_topic = "/experiment/progress";
   core::WebSite site;
+  FoxgloveTopics::Options foxglove_options;
 
   // ---- the scene and the loop's state (ROS callbacks; state_mutex) ----
   std::mutex state_mutex;
@@ -73,6 +85,8 @@ struct WebBridge::Impl {
   // Last: the protocol's worker and the server's network thread stop before anything they call goes.
   core::WebServer server;
   core::WebStreamProtocol protocol;
+  core::FoxgloveProtocol foxglove;
+  FoxgloveTopics foxglove_topics;
 
   // =====================================================================================================
   void configure(ros::NodeHandle& pnh, ros::NodeHandle& nh) {
@@ -128,7 +142,24 @@ struct WebBridge::Impl {
     token = new_token;
     web_root = root;
     experiment_progress_topic = progress_topic;
+    foxglove_options = readFoxglove(parameters);
     loadSite();
+  }
+
+  /// The Foxglove protocol's topics and cameras, under ~ns unless global (ns is read already).
+  FoxgloveTopics::Options readFoxglove(const ParameterReader& parameters) const {
+    FoxgloveTopics::Options o;
+    for (const auto& t : parameters.get<std::vector<std::string>>("foxglove_topics")) {
+      o.topics.push_back(underNamespace(ns, t));
+    }
+    for (const auto& c : parameters.get<std::vector<std::string>>("foxglove_cameras")) {
+      o.cameras.push_back(underNamespace(ns, c));
+    }
+    o.image_rate = parameters.get<double>("foxglove_image_rate");
+    o.jpeg_quality = parameters.get<int>("foxglove_jpeg_quality");
+    core::requireInRange("~foxglove_image_rate", o.image_rate, 0.1, 100);
+    core::requireInRange("~foxglove_jpeg_quality", o.jpeg_quality, 1, 100);
+    return o;
   }
 
   void loadSite() {
@@ -174,11 +205,13 @@ struct WebBridge::Impl {
                                                [this](const Notions::ConstPtr& m) { onNotions(*m); }));
     subscribers.push_back(nh.subscribe<ExperimentProgress>(
         experiment_progress_topic, 10, [this](const ExperimentProgress::ConstPtr& m) { onExperiment(*m); }));
+    foxglove_topics.start(nh, foxglove_options);
   }
 
   void unsubscribe() {
     for (auto& s : subscribers) s.shutdown();
     subscribers.clear();
+    foxglove_topics.stop();
   }
 
   void publishState(const std::string& key, const std::string& text) { server.publish(key, textPayload(text)); }
@@ -328,14 +361,17 @@ struct WebBridge::Impl {
 
   void start() {
     protocol.start(allow_commands, token);
+    foxglove.start();
     try {
       server.start(options, site);
     } catch (...) {
       protocol.stop();
       throw;
     }
-    ROS_INFO("%s: serving http://%s:%d/ (commands %s)", owner.name().c_str(), options.address.c_str(),
-             server.boundPort(), allow_commands ? "on, with a token" : "off: read-only");
+    ROS_INFO("%s: serving http://%s:%d/ (commands %s); Foxglove and Lichtblick connect to ws://%s:%d (%s, read-only)",
+             owner.name().c_str(), options.address.c_str(), server.boundPort(),
+             allow_commands ? "on, with a token" : "off: read-only", options.address.c_str(), server.boundPort(),
+             core::kFoxgloveSubprotocol);
   }
 
   void stop() {
@@ -374,7 +410,15 @@ const core::ParameterTable& WebBridge::parameters() {
        core::textParameter("token", "", "the secret ~allow_commands asks for (at least 8 characters)"),
        core::derivedParameter(ParameterSpec::Type::String, "web_root", "the package's web/", 0, INFINITY,
                               "the directory of the page and its npm modules"),
-       core::textParameter("experiment_progress_topic", "/experiment/progress", "the experiment runner's progress")});
+       core::textParameter("experiment_progress_topic", "/experiment/progress", "the experiment runner's progress"),
+       core::namesParameter("foxglove_topics",
+                            {"/clock", "/tf", "/tf_static", "xpersim/markers", "xpersim/ground_truth",
+                             "loop_model/progress", "machine_learning/notions"},
+                            64, "topics offered to Foxglove clients as they are (relative ones under ~ns)"),
+       core::namesParameter("foxglove_cameras", {"observation/image_raw", "perception/image_raw"}, 16,
+                            "raw image topics offered to Foxglove clients as <topic>/compressed JPEG"),
+       core::numberParameter("foxglove_image_rate", 5.0, 0.1, 100.0, "Hz of wall time: JPEGs per camera at most"),
+       core::intParameter("foxglove_jpeg_quality", 80, 1, 100, "the JPEGs' quality")});
   return table;
 }
 

@@ -15,6 +15,11 @@
  * This class only turns topics into the page's messages (core::WebServer::publish) and a client's command into
  * a LOOPMODEL service call; the page's protocol is core::WebStreamProtocol.
  *
+ * On the same port, clients that ask for the subprotocol `foxglove.websocket.v1` (Foxglove, Lichtblick) speak the
+ * Foxglove WebSocket protocol instead (core::FoxgloveProtocol; the topics as channels: FoxgloveTopics, issue 40;
+ * doc/foxglove.md): `~foxglove_topics` as they are, `~foxglove_cameras` as JPEG, /clock as Time. That protocol is
+ * read-only whatever `~allow_commands` says: it offers no publishing, services or parameters.
+ *
  * Read-only by default: it only listens to topics. With `~allow_commands` and a `~token`, a client may call
  * LOOPMODEL's pause, resume and confirm (the console client's sliding-autonomy operations).
  *
@@ -23,7 +28,8 @@
  * another), `~max_rate` [1000], `~send_window` bytes [262144], `~socket_send_buffer` bytes (the kernel's
  * SO_SNDBUF per client) [65536], `~stall_timeout` s [10], `~max_clients` [128], `~max_client_message` bytes
  * [4096], `~client_messages_per_second` [20], `~curve_points` [2000], `~allow_commands` [false], `~token` [""],
- * `~web_root` [$(find xpersif)/web], `~experiment_progress_topic` [/experiment/progress].
+ * `~web_root` [$(find xpersif)/web], `~experiment_progress_topic` [/experiment/progress], `~foxglove_topics`,
+ * `~foxglove_cameras`, `~foxglove_image_rate` [5], `~foxglove_jpeg_quality` [80] (doc/parameters.md).
  * Once listening it sets `~bound_port` (the port, useful with `~port` 0). `GET /stats` answers JSON counters.
  */
 #pragma once

@@ -587,4 +587,6 @@ WebClientQueue* WebServer::queue(WebClientId client) {
   return it == impl_->clients.end() ? nullptr : &it->second->queue;
 }
 
+void WebServer::flush() { impl_->flush(); }
+
 }  // namespace xpersif::core

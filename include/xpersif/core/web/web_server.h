@@ -129,6 +129,8 @@ class WebServer {
   void refuse(WebClientId client, std::uint16_t code, const std::string& why);
   /// @p client's queue (its rate), or nullptr when it has gone.
   WebClientQueue* queue(WebClientId client);
+  /// Send what every client's queue may hand out now (after a protocol offered to their queues).
+  void flush();
 
  private:
   struct Impl;
