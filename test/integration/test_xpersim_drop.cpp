@@ -38,6 +38,9 @@ class XPerSimDrop : public ::testing::Test {
   void SetUp() override {
     ASSERT_TRUE(ros::service::waitForService("/xpersim/set_pose", ros::Duration(60.0)));
     ASSERT_TRUE(truth_.waitForMatch([](const xpersif::BodyPoses&) { return true; }, 30.0));
+    // ~events is not latched: an event published before this fixture's subscriber is connected is lost (the
+    // blow-up test once waited 20 s for one XPERSim had reported, on a loaded machine).
+    ASSERT_TRUE(events_.waitForConnection(30.0)) << "/xpersim/events has no publisher connected";
   }
 
   /// The latest ground-truth pose and speed of @p name.
