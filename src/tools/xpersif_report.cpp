@@ -346,14 +346,15 @@ void describeCompetence(const Curves& curves, std::ostream& md) {
         "target (m), averaged over the same objects as above. Lower is better.\n\n"
      << "| design | after " << at[0] << " | after " << at[1] << " | after " << at[2] << " | ratio to random (all) |\n"
      << "|---|---|---|---|---|\n";
+  std::map<std::string, std::vector<double>> goal_of;  // each design's balanced goal error, computed once
   std::map<std::string, double> at_end;
   for (const auto& c : curves.curves) {
-    const std::vector<double> goal = balancedGoalError(c, curves.moving);
-    at_end[c.name] = valueAt(c.experiments, goal, at[2]);
+    goal_of[c.name] = balancedGoalError(c, curves.moving);
+    at_end[c.name] = valueAt(c.experiments, goal_of[c.name], at[2]);
   }
   const bool has_random = at_end.count("random") && std::isfinite(at_end["random"]) && at_end["random"] > 0;
   for (const auto& c : curves.curves) {
-    const std::vector<double> goal = balancedGoalError(c, curves.moving);
+    const std::vector<double>& goal = goal_of[c.name];
     md << "| " << c.name;
     for (int k : at) md << " | " << cell(valueAt(c.experiments, goal, k));
     md << " | " << (has_random ? cell(at_end[c.name] / at_end["random"], 3) : "—") << " |\n";
