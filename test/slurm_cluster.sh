@@ -16,6 +16,7 @@ SLURM_NS_PREFIX="xslurm$$"
 # them to ROS_IP (127.0.0.1), where the nodes in their namespaces cannot reach the controller, nor it them.
 SLURM_DAEMON_ENV="env -u LD_PRELOAD -u XPERSIF_BIND_ADDRESS"
 SLURM_PIDS=()
+declare -A SLURM_NODE_PID=()
 
 slurm_conf() {
   local dir=$1
@@ -78,6 +79,7 @@ slurm_node_start() {
   nsenter --net="/var/run/netns/${SLURM_NS_PREFIX}$node" $SLURM_DAEMON_ENV slurmd -D -f "$SLURM_CONF" -N "$node" \
     >>"$SLURM_DIR/slurmd-$node.out" 2>&1 &
   SLURM_PIDS+=($!)
+  SLURM_NODE_PID[$node]=$!
   disown $!  # a node killed on purpose is no news to the shell
 }
 
@@ -87,14 +89,36 @@ slurm_node_kill() {
   [[ -z "$pids" ]] || kill -9 $pids 2>/dev/null || true
 }
 
-slurm_wait_idle() {
+# Every daemon's log, the last lines of each, for a failure's sentence.
+slurm_logs() {
+  tail -n 8 "$SLURM_DIR"/*.log "$SLURM_DIR"/*.out "$SLURM_DIR"/munge/munged.log >&2 2>/dev/null || true
+}
+
+# Waits up to $2 seconds for the command $1 to succeed.
+slurm_wait_for() {
   local i
-  for ((i = 0; i < 60; i++)); do
+  for ((i = 0; i < $2 * 5; i++)); do
+    eval "$1" >/dev/null 2>&1 && return 0
+    sleep 0.2
+  done
+  return 1
+}
+
+slurm_wait_idle() {
+  local i node
+  for ((i = 0; i < 120; i++)); do
     [[ $(sinfo -h -N -o "%N %t" 2>/dev/null | grep -c " idle$") == 2 ]] && return 0
+    # A slurmd that exited (rather than one slow to register) is named, with its last words, and started again.
+    for node in "${!SLURM_NODE_PID[@]}"; do
+      kill -0 "${SLURM_NODE_PID[$node]}" 2>/dev/null && continue
+      echo "the slurmd of $node exited; starting it again. Its output:" >&2
+      tail -n 8 "$SLURM_DIR/slurmd-$node.out" "$SLURM_DIR/slurmd-$node.log" >&2 2>/dev/null || true
+      slurm_node_start "$node"
+    done
     sleep 1
   done
-  echo "the cluster's nodes did not become idle: $(sinfo -N 2>&1)" >&2
-  tail -5 "$SLURM_DIR"/*.log >&2
+  echo "the cluster's nodes did not become idle in 120 s: $(sinfo -N 2>&1)" >&2
+  slurm_logs
   return 1
 }
 
@@ -111,8 +135,14 @@ slurm_cluster_start() {
   export SLURM_CONF="$SLURM_DIR/slurm.conf"
   slurm_conf "$SLURM_DIR" >"$SLURM_CONF"
   slurm_network
+  # Each daemon after the one it needs answers: a slurmd that starts before munged or slurmctld can answer may
+  # give up registering, and its node then stays "unk*" (seen once in CI, under load).
+  slurm_wait_for "munge -n --socket='$SLURM_DIR/munge/munge.socket'" 30 ||
+    { echo "munged did not answer in 30 s" >&2; slurm_logs; return 1; }
   $SLURM_DAEMON_ENV slurmctld -D -i -f "$SLURM_CONF" >"$SLURM_DIR/slurmctld.out" 2>&1 &
   SLURM_PIDS+=($!)
+  slurm_wait_for "[[ \$(scontrol ping 2>/dev/null) == *UP* ]]" 60 ||
+    { echo "slurmctld did not answer in 60 s" >&2; slurm_logs; return 1; }
   slurm_node_start n1
   slurm_node_start n2
   slurm_wait_idle
