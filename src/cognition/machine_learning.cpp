@@ -91,6 +91,12 @@ MachineLearning::MachineLearning(ros::NodeHandle nh, ros::NodeHandle private_nh)
         core::PushInput input{fromMsg(r.experiment), fromMsg(r.object)};
         std::lock_guard<std::mutex> lock(mutex_);
         if (!learner_) throw std::runtime_error("the model is not configured");
+        // A model of the run before would make the prediction (and the surprise curiosity follows) depend on how
+        // soon the follower restored this run.
+        if (r.run_id != 0 && r.run_id != run_id_) {
+          throw core::UnavailableError("the model is of run " + std::to_string(run_id_) + ", not yet of run " +
+                                      std::to_string(r.run_id));
+        }
         const core::Prediction p = learner_->predict(input);
         response.mean = {p.mean.dx, p.mean.dy, p.mean.dyaw};
         response.std = {p.std.dx, p.std.dy, p.std.dyaw};

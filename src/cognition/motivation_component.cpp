@@ -134,7 +134,7 @@ void MotivationComponent::onConfigure() {
     surprise_.setDefaultYawLength(half_sizes / catalogue.objects.size());
     follow_ = follow;
     run_id_ = 0;
-    scored_ = 0;
+    done_heard_ = 0;
     last_ = core::Surprise();
     // One message per experiment (DESIGNOFEXPERIMENTS and recorders count on each): no dropping under load.
     if (!motivation_pub_) motivation_pub_ = pnh.advertise<Motivation>("motivation", 100, true);
@@ -165,23 +165,24 @@ void MotivationComponent::onShutdown() {
 }
 
 bool MotivationComponent::take(const ExperimentRecord& record) {
+  const bool done = record.status == "done";
+  if (done) ++done_heard_;
   std::optional<core::Surprise> s;
   try {
     s = surprise_.score(record);
   } catch (const std::exception& e) {
     ROS_WARN("%s: experiment %u of run %lu has no valid prediction: %s", name().c_str(), record.seq,
              static_cast<unsigned long>(record.run_id), e.what());
-    return false;
+    return done;
   }
-  if (!s) return false;
+  if (!s) return done;
   std::string why;
   if (!curiosity_.record(record.experiment, *s, &why)) {
     ROS_WARN("%s: experiment %u of run %lu is outside the curiosity map: %s", name().c_str(), record.seq,
              static_cast<unsigned long>(record.run_id), why.c_str());
-    return false;
+    return done;
   }
   last_ = *s;
-  ++scored_;
   return true;
 }
 
@@ -190,7 +191,7 @@ void MotivationComponent::reset(std::uint64_t run_id, const std::vector<Experime
     std::lock_guard<std::mutex> lock(mutex_);
     curiosity_.reset();
     run_id_ = run_id;
-    scored_ = 0;
+    done_heard_ = 0;
     last_ = core::Surprise();
     for (const auto& record : records) take(record);
   }
@@ -212,7 +213,7 @@ void MotivationComponent::publish() {
     std::lock_guard<std::mutex> lock(mutex_);
     message->header.stamp = ros::Time::now();
     message->run_id = run_id_;
-    message->experiments = scored_;
+    message->experiments = done_heard_;
     message->surprise = last_.error;
     message->normalized_surprise = last_.normalized;
     curiosity_.fill(*message);

@@ -98,6 +98,9 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
                                "probability of a random candidate (curiosity) or region (region_choice greedy)"),
          core::intParameter("offset_bins", 3, 1, 100, "offset bins per face of curiosity's regions (as MOTIVATION's)"),
          core::numberParameter("optimistic_curiosity", 1.0, -1e9, 1e9, "curiosity of a region not yet visited"),
+         core::numberParameter("input_wait", 5.0, 0.01, 600.0,
+                               "s a request waits for MOTIVATION's and the history's view of its run before it is "
+                               "refused as UNAVAILABLE (LOOPMODEL asks again)"),
          core::intParameter("region_max_size", static_cast<int>(d.region_max_size), 4, 10000,
                             "region designs: a region holding more experiments is split"),
          core::intParameter("progress_window", static_cast<int>(d.progress_window), 1, 1000,
@@ -146,6 +149,7 @@ void DesignOfExperiments::onConfigure() {
   options.epsilon = parameters.get<double>("epsilon");
   const int offset_bins = parameters.get<int>("offset_bins");
   const double optimistic = parameters.get<double>("optimistic_curiosity");
+  const double input_wait = parameters.get<double>("input_wait");
   options.region_max_size = static_cast<std::size_t>(parameters.get<int>("region_max_size"));
   options.progress_window = static_cast<std::size_t>(parameters.get<int>("progress_window"));
   options.region_choice = parameters.get<std::string>("region_choice");
@@ -183,9 +187,12 @@ void DesignOfExperiments::onConfigure() {
     robot_radius_ = catalogue.robot_radius;
     feasible_only_ = feasible_only;
     optimistic_ = optimistic;
+    input_wait_ = input_wait;
     designed_ = 0;
     curiosity_.clear();
     have_motivation_ = false;
+    motivation_run_ = 0;
+    motivation_scored_ = 0;
     latest_features_.reset();
     features_topic_ = nodeHandle().resolveName(features_topic);
     follow_ = follow;
@@ -212,6 +219,7 @@ void DesignOfExperiments::onActivate() {
     std::lock_guard<std::mutex> lock(mutex_);
     history_run_ = 0;
     history_.clear();
+    history_done_ = 0;
   }
   follower_ = std::make_unique<ExperimentFollower>(
       nodeHandle(), follow_,
@@ -246,7 +254,9 @@ void DesignOfExperiments::resetHistory(std::uint64_t run_id, const std::vector<E
   std::lock_guard<std::mutex> lock(mutex_);
   history_run_ = run_id;
   history_.clear();
+  history_done_ = 0;
   for (const auto& r : records) {
+    if (r.status == "done") ++history_done_;
     if (auto past = pastExperiment(r)) history_.push_back(*past);
   }
   history_grew_.notify_all();
@@ -257,7 +267,9 @@ void DesignOfExperiments::addHistory(const ExperimentRecord& record) {
   if (record.run_id != history_run_) {  // the follower resets first; this only guards against a stray record
     history_run_ = record.run_id;
     history_.clear();
+    history_done_ = 0;
   }
+  if (record.status == "done") ++history_done_;
   if (auto past = pastExperiment(record)) history_.push_back(*past);
   history_grew_.notify_all();
 }
@@ -274,6 +286,7 @@ void DesignOfExperiments::onMotivation(const Motivation::ConstPtr& motivation) {
   std::lock_guard<std::mutex> lock(mutex_);
   curiosity_ = std::move(curiosity);
   have_motivation_ = true;
+  motivation_run_ = motivation->run_id;
   motivation_scored_ = motivation->experiments;
   motivated_.notify_all();
 }
@@ -306,6 +319,25 @@ std::string DesignOfExperiments::candidates(const DesignExperiment::Request& req
   return objects->empty() ? "the latest feature vector shows none of ~objects " + joinNames(objects_) : "";
 }
 
+std::string DesignOfExperiments::awaitInputs(const DesignExperiment::Request& request,
+                                             std::unique_lock<std::mutex>& lock) {
+  const auto wait = std::chrono::duration<double>(input_wait_);
+  const auto of_run = [&](std::uint64_t run) { return request.run_id == 0 || run == request.run_id; };
+  if (design_->usesCuriosity() &&
+      !motivated_.wait_for(lock, wait, [&] { return of_run(motivation_run_) && motivation_scored_ >= request.scored; })) {
+    return "MOTIVATION has not yet spoken of the run's first " + std::to_string(request.scored) +
+           " successful experiments (its latest message: run " + std::to_string(motivation_run_) + ", " +
+           std::to_string(motivation_scored_) + " experiments; this request: run " + std::to_string(request.run_id) + ")";
+  }
+  if (design_->usesHistory() &&
+      !history_grew_.wait_for(lock, wait, [&] { return of_run(history_run_) && history_done_ >= request.scored; })) {
+    return "the knowledge base's successful experiments of run " + std::to_string(request.run_id) +
+           " have not all arrived (" + std::to_string(of_run(history_run_) ? history_done_ : 0) + " of " +
+           std::to_string(request.scored) + ")";
+  }
+  return "";
+}
+
 void DesignOfExperiments::design(const DesignExperiment::Request& request, DesignExperiment::Response& response) {
   std::vector<std::string> reachable;
   const std::string why = candidates(request, &reachable);
@@ -318,21 +350,8 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
     design_name_ = request.design;
     designed_ = 0;
   }
-  if (design_->usesCuriosity() && request.scored > 0 &&
-      !motivated_.wait_for(lock, std::chrono::seconds(10), [&] { return motivation_scored_ >= request.scored; })) {
-    ROS_WARN("%s: MOTIVATION has not spoken of %u experiments within 10 s; designing with what it said",
-             name().c_str(), request.scored);
-  }
-  if (design_->usesHistory()) {
-    const auto ready = [&] {
-      return (request.run_id == 0 || history_run_ == request.run_id) && history_.size() >= request.scored;
-    };
-    if (!history_grew_.wait_for(lock, std::chrono::seconds(10), ready)) {
-      ROS_WARN("%s: the knowledge base's experiments of run %lu have not all arrived within 10 s (%zu of %u); "
-               "designing with what came",
-               name().c_str(), static_cast<unsigned long>(request.run_id), history_.size(), request.scored);
-    }
-  }
+  const std::string missing = awaitInputs(request, lock);
+  if (!missing.empty()) throw core::UnavailableError(missing);
   core::DesignContext context;
   if (design_->usesHistory() && (request.run_id == 0 || history_run_ == request.run_id)) context.history = history_;
   const std::set<std::string> can(reachable.begin(), reachable.end());

@@ -200,6 +200,7 @@ void LoopModel::onConfigure() {
   lockstep_ = std::make_unique<LockstepClient>(nodeHandle(), pnh, pnh.getNamespace(), false);
   model_sub_ = nodeHandle().subscribe<LearnedModel>("machine_learning/model", 1, [this](const LearnedModel::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
+    model_run_ = m->run_id;
     model_samples_ = m->samples;
   });
   publishProgress(nullptr);

@@ -148,6 +148,7 @@ std::string LoopModel::compareWithPrediction(const Experiment& experiment, Exper
   Predict predict;
   predict.request.experiment = experiment;
   predict.request.object = *before;
+  predict.request.run_id = record.run_id;
   failure = StageFailure();
   failure.stage = core::ExperimentStage::Prediction;
   const std::string why =

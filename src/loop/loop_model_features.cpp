@@ -33,18 +33,18 @@ std::uint32_t LoopModel::modelSamples() {
   return model_samples_;
 }
 
-void LoopModel::waitForLearning(std::uint32_t samples, Run::Context& context) {
+void LoopModel::waitForLearning(std::uint64_t run_id, std::uint32_t samples, Run::Context& context) {
   Spending spending(wall_spent_, "learning");
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(learning_timeout_);
   while (ros::WallTime::now() < deadline && !context.stopRequested()) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (model_samples_ >= samples) return;
+      if (model_run_ == run_id && model_samples_ >= samples) return;
     }
     ros::WallDuration(0.01).sleep();
   }
-  ROS_WARN("%s: MACHINELEARNING has not learned experiment %u within %.0f s; going on", name().c_str(), samples,
-           learning_timeout_);
+  ROS_WARN("%s: MACHINELEARNING has not learned experiment %u of run %lu within %.0f s; going on", name().c_str(),
+           samples, static_cast<unsigned long>(run_id), learning_timeout_);
 }
 
 std::string LoopModel::waitForSelection(const std::vector<std::string>& selection) {

@@ -114,6 +114,7 @@ LoopModel::Ending LoopModel::pushOnce(RunState& run, GoalAttempt& attempt, int p
     return std::nullopt;
   }
   ExperimentRecord record;
+  record.run_id = run.result.run_id;  // MACHINELEARNING predicts with this run's model only
   const std::uint64_t losses_before = losses_;
   runExperiment(*chosen, "goal", run.context, record);
   // As after an experiment: the world the push left, taken before anything is stored, from the same simulator.
@@ -169,7 +170,7 @@ std::optional<Experiment> LoopModel::choosePush(RunState& run, const GoalAttempt
 
 void LoopModel::afterPush(RunState& run, GoalAttempt& attempt, const ExperimentRecord& record) {
   if (record.status == "done") {
-    waitForLearning(learnedOneMore(run), run.context);
+    waitForLearning(run.result.run_id, learnedOneMore(run), run.context);
     attempt.scene = record.after;
   } else {
     ROS_WARN("%s: goal %u (%s): a push failed: %s", name().c_str(), attempt.number, attempt.design.object.c_str(),

@@ -197,6 +197,7 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   NextExperiment next;
   if (Ending end = chooseExperiment(run, scene, next)) return end;
   ExperimentRecord record;
+  record.run_id = run.result.run_id;  // MACHINELEARNING predicts with this run's model only
   StageFailure failure;
   runExperiment(next.experiment, next.design, run.context, record, &failure);
   if (run.context.stopRequested() && record.status != "done") return ended(run, "stopped during an experiment");
@@ -331,7 +332,7 @@ void LoopModel::countExperiment(RunState& run, const Experiment& experiment, con
   ++run.done;
   if (record.status == "done") {
     ++run.result.experiments_done;
-    waitForLearning(learnedOneMore(run), run.context);
+    waitForLearning(run.result.run_id, learnedOneMore(run), run.context);
   } else {
     ++run.result.experiments_failed;
     ROS_WARN("%s: experiment %u failed: %s", name().c_str(), run.done, record.reason.c_str());

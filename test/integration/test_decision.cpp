@@ -320,6 +320,38 @@ TEST_F(Decision, CuriosityFollowsMotivationsRegions) {
   motivation.shutdown();
 }
 
+TEST_F(Decision, CuriosityWaitsForMotivationOfTheRequestsRunAndRefusesAsUnavailableWithoutIt) {
+  // Deciding on the run before's curiosity (however many experiments it counts) would make a campaign's choice
+  // depend on timing: the request is refused, UNAVAILABLE and naming MOTIVATION, until its run's message is there.
+  ros::param::set(ns + "design_of_experiments/input_wait", 0.5);
+  reconfigure("curiosity");
+  ros::Publisher motivation = nh_.advertise<xpersif::Motivation>(ns + "motivation/motivation", 1, true);
+  xpersif::Motivation before;
+  before.run_id = 4;
+  before.experiments = 40;
+  motivation.publish(before);
+  ros::Duration(0.5).sleep();
+  xpersif::DesignExperiment call;
+  call.request.run_id = 5;
+  call.request.scored = 1;
+  ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", call));
+  EXPECT_FALSE(call.response.success);
+  EXPECT_EQ(call.response.code, xpersif::ResultCode::UNAVAILABLE) << call.response.message;
+  EXPECT_NE(call.response.message.find("MOTIVATION"), std::string::npos) << call.response.message;
+  EXPECT_NE(call.response.message.find("run 4"), std::string::npos) << call.response.message;
+
+  xpersif::Motivation of_run = before;
+  of_run.run_id = 5;
+  of_run.experiments = 1;
+  motivation.publish(of_run);
+  EXPECT_TRUE(waitFor(
+      [&] { return callService(ns + "design_of_experiments/design_experiment", call) && call.response.success; },
+      20.0))
+      << call.response.message;
+  ros::param::set(ns + "design_of_experiments/input_wait", 5.0);
+  motivation.shutdown();
+}
+
 TEST_F(Decision, MakePlanChainsGetFeaturesPushGetFeatures) {
   const auto call = plan({"pushed(red_cube, -x, 0.01, 0.05)", "observed(scene)"});
   ASSERT_TRUE(call.response.success) << call.response.message;

@@ -94,7 +94,8 @@ class MotivationComponent : public AggregateComponent {
  private:
   void reset(std::uint64_t run_id, const std::vector<ExperimentRecord>& records);
   void add(const ExperimentRecord& record);
-  /// Score and record one record (mutex_ held); true when it counted.
+  /// Count, score and record one record (mutex_ held); true when the message changes (a successful experiment
+  /// heard of, scored or not).
   bool take(const ExperimentRecord& record);
   void publish();
 
@@ -102,7 +103,9 @@ class MotivationComponent : public AggregateComponent {
   CuriosityPart& curiosity_;
   std::mutex mutex_;  // guards the parts' state and what follows
   std::uint64_t run_id_ = 0;
-  std::uint32_t scored_ = 0;
+  // The run's successful experiments heard of, scored or not: what DESIGNOFEXPERIMENTS waits for (a record
+  // without a valid prediction must not keep it waiting).
+  std::uint32_t done_heard_ = 0;
   core::Surprise last_;
   ExperimentFollower::Options follow_;
 

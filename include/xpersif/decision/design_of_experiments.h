@@ -13,8 +13,11 @@
  * Designs that read the run's history (usesHistory(): learning_progress, error_max) get the run's successful
  * experiments with their held-out errors (the records' `surprise`: the prediction was made before the outcome was
  * seen) from the KNOWLEDGEBASE's experiments, followed as MOTIVATION follows them (ExperimentFollower, restored from
- * the KB on a new run or a restart); a request first waits (bounded, 10 s) until the follower holds the request's
- * run and `scored` successful experiments of it, so the choice never depends on when a message arrived.
+ * the KB on a new run or a restart). A request of a run first waits until what it is designed from is of that run
+ * and counts its `scored` successful experiments: MOTIVATION's latest message (curiosity designs) and the
+ * follower's history (history designs). Deciding on less would make the choice depend on when a message arrived
+ * (the curiosity of the run before, one experiment short); so after ~input_wait seconds the request is refused as
+ * UNAVAILABLE, naming what is missing, and LOOPMODEL asks again.
  *
  * Which objects may be pushed: the request's `reachable` list, or else the objects of the latest feature
  * vector on ~features_topic (VISION's), always restricted to ~objects.
@@ -64,6 +67,9 @@ class DesignOfExperiments : public Component {
   /// The objects the request may push now (reachable list or what vision saw), or why there are none.
   std::string candidates(const DesignExperiment::Request& request, std::vector<std::string>* objects) const;
   void design(const DesignExperiment::Request& request, DesignExperiment::Response& response);
+  /// Waits (mutex_ held in @p lock) for MOTIVATION's and the history's view of the request's run; "" or what is
+  /// still missing after ~input_wait seconds.
+  std::string awaitInputs(const DesignExperiment::Request& request, std::unique_lock<std::mutex>& lock);
   void onFeatures(const FeatureVector::ConstPtr& features);
   void onMotivation(const Motivation::ConstPtr& motivation);
   /// The follower's hooks: the run's history from scratch, and one more record.
@@ -92,7 +98,9 @@ class DesignOfExperiments : public Component {
   std::size_t designed_ = 0;
   std::map<std::string, double> curiosity_;  // region key -> curiosity, from the latest Motivation
   bool have_motivation_ = false;
-  std::uint32_t motivation_scored_ = 0;  // experiments MOTIVATION's latest message counts
+  std::uint64_t motivation_run_ = 0;     // the run MOTIVATION's latest message is of
+  std::uint32_t motivation_scored_ = 0;  // successful experiments MOTIVATION's latest message counts
+  double input_wait_ = 5.0;              // ~input_wait, s
   std::condition_variable motivated_;
   FeatureVector::ConstPtr latest_features_;
   // The run's successful experiments with their held-out errors (the follower's thread fills them).
@@ -100,6 +108,7 @@ class DesignOfExperiments : public Component {
   std::unique_ptr<ExperimentFollower> follower_;
   std::uint64_t history_run_ = 0;
   std::vector<core::PastExperiment> history_;
+  std::size_t history_done_ = 0;  // the run's successful records heard of, with a valid error or not
   std::condition_variable history_grew_;
   std::string features_topic_;
 

@@ -171,7 +171,8 @@ class LoopModel : public Supervisor {
   std::uint32_t learnedOneMore(RunState& run);
 
   // ---- one experiment (loop_model_experiment.cpp) ----
-  /// One experiment, start to end; fills @p record (status done or failed, with the reason) and, when given,
+  /// One experiment, start to end, of the run @p record.run_id names; fills @p record (status done or failed, with
+  /// the reason) and, when given,
   /// @p failure with the stage that failed, its code and the camera's latest vector.
   void runExperiment(const Experiment& experiment, const std::string& design, Run::Context& context,
                      ExperimentRecord& record, StageFailure* failure = nullptr);
@@ -231,7 +232,9 @@ class LoopModel : public Supervisor {
   std::uint32_t modelSamples();
   /// What MACHINELEARNING learns from, as its use_features answered (GOALDESIGN waits for that model).
   std::vector<std::string> learningFeatures();
-  void waitForLearning(std::uint32_t samples, Run::Context& context);
+  /// Until MACHINELEARNING's model is of run @p run_id with @p samples samples (up to ~learning_timeout; a model
+  /// of the run before, however many samples it has, is not this run's).
+  void waitForLearning(std::uint64_t run_id, std::uint32_t samples, Run::Context& context);
 
   /// Which features the run learns from, and how far that is applied (the run's thread only).
   struct FeatureStage {
@@ -279,6 +282,7 @@ class LoopModel : public Supervisor {
   double latest_clock_ = 0;  // the latest simulated time the run's thread saw (a restored world's clock goes on after it)
   std::deque<Experiment> next_experiments_;  // hand-chosen, run before designed ones
   RunLoopFeedback progress_;
+  std::uint64_t model_run_ = 0;  // the run MACHINELEARNING's latest model is of
   std::uint32_t model_samples_ = 0;
   /// Wall seconds the current run spent in each step (scene, tidy, design, plan, execution, predict, record,
   /// learning), logged at its end: where a campaign's time goes (bench/loop_speed.md).
