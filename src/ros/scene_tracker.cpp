@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "xpersif/GetScene.h"
+#include "xpersif/ResultCode.h"
 #include "xpersif/component/message_checks.h"
 #include "xpersif/ros/conversions.h"
 
@@ -17,9 +18,18 @@ void SceneTracker::fetch(const std::string& get_scene_service, double timeout) {
     throw std::runtime_error("no scene: " + get_scene_service + " did not appear within " +
                              core::describeNumber(timeout) + " s (is xpersim running?)");
   }
+  // XPERSim offers get_scene before its configure has made the world, and answers NOT_ACTIVE until then (a viewer
+  // started beside the system, as on a multi-host view host, often asks that early): ask again until the timeout.
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
   GetScene call;
-  if (!ros::service::call(get_scene_service, call) || !call.response.success) {
-    throw std::runtime_error("no scene from " + get_scene_service + ": " + call.response.message);
+  while (!ros::service::call(get_scene_service, call) || !call.response.success) {
+    const bool not_yet = call.response.code == ResultCode::NOT_ACTIVE || call.response.code == ResultCode::UNAVAILABLE;
+    if (!not_yet || ros::WallTime::now() > deadline || !ros::ok()) {
+      throw std::runtime_error("no scene from " + get_scene_service + ": " +
+                               (call.response.message.empty() ? "it did not answer" : call.response.message));
+    }
+    ros::WallDuration(0.2).sleep();
+    call = GetScene();
   }
   setScene(call.response.scene);
 }
