@@ -13,25 +13,28 @@ SceneTracker::SceneTracker(ros::NodeHandle& nh) : nh_(nh) {
   tf_sub_ = nh_.subscribe<tf2_msgs::TFMessage>("/tf", 100, &SceneTracker::onTf, this, ros::TransportHints().tcpNoDelay());
 }
 
-void SceneTracker::fetch(const std::string& get_scene_service, double timeout) {
-  if (!ros::service::waitForService(get_scene_service, ros::Duration(timeout))) {
-    throw std::runtime_error("no scene: " + get_scene_service + " did not appear within " +
-                             core::describeNumber(timeout) + " s (is xpersim running?)");
+xpersif::Scene fetchScene(const std::string& service, double timeout, const std::string& hint) {
+  if (!ros::service::waitForService(service, ros::Duration(timeout))) {
+    throw std::runtime_error("no scene: " + service + " did not appear within " + core::describeNumber(timeout) +
+                             " s" + hint);
   }
-  // XPERSim offers get_scene before its configure has made the world, and answers NOT_ACTIVE until then (a viewer
-  // started beside the system, as on a multi-host view host, often asks that early): ask again until the timeout.
+  // A viewer started beside the system (as on a multi-host view host) often asks before XPERSim's configure.
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
   GetScene call;
-  while (!ros::service::call(get_scene_service, call) || !call.response.success) {
+  while (!ros::service::call(service, call) || !call.response.success) {
     const bool not_yet = call.response.code == ResultCode::NOT_ACTIVE || call.response.code == ResultCode::UNAVAILABLE;
     if (!not_yet || ros::WallTime::now() > deadline || !ros::ok()) {
-      throw std::runtime_error("no scene from " + get_scene_service + ": " +
+      throw std::runtime_error("no scene from " + service + ": " +
                                (call.response.message.empty() ? "it did not answer" : call.response.message));
     }
-    ros::WallDuration(0.2).sleep();
+    ros::WallDuration(0.1).sleep();
     call = GetScene();
   }
-  setScene(call.response.scene);
+  return call.response.scene;
+}
+
+void SceneTracker::fetch(const std::string& get_scene_service, double timeout) {
+  setScene(fetchScene(get_scene_service, timeout, " (is xpersim running?)"));
 }
 
 void SceneTracker::follow(const std::string& scene_topic, std::function<void()> on_scene) {

@@ -2,11 +2,11 @@
 
 #include <stdexcept>
 
-#include "xpersif/GetScene.h"
 #include "xpersif/core/sim/physics_world.h"
 #include "xpersif/core/common/validation.h"
 #include "xpersif/core/sim/world_spec.h"
 #include "xpersif/ros/conversions.h"
+#include "xpersif/ros/scene_tracker.h"
 
 namespace xpersif {
 
@@ -51,21 +51,8 @@ core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::No
   if (private_nh.searchParam("scene_timeout", key)) private_nh.getParam(key, timeout);
   core::throwIfInvalid(core::checkParameter(declared.at("scene_timeout"), timeout));
   service = nh.resolveName(service);
-  if (!ros::service::waitForService(service, ros::Duration(timeout))) {
-    throw std::runtime_error("no scene: XPERSim's " + service + " did not appear within " +
-                             core::describeNumber(timeout) + " s; the objects and the arena are read from it");
-  }
-  // The simulator offers the operation before it has loaded its world: ask again until it has one.
-  GetScene call;
-  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (!ros::service::call(service, call) || !call.response.success) {
-    if (ros::WallTime::now() > until || !ros::ok()) {
-      throw std::runtime_error("no scene from " + service + " within " + core::describeNumber(timeout) + " s: " +
-                               (call.response.message.empty() ? std::string("the call failed") : call.response.message));
-    }
-    ros::WallDuration(0.1).sleep();
-  }
-  return restricted(core::SetupCatalogue::fromScene(fromSceneMsg(call.response.scene)), private_nh);
+  const xpersif::Scene scene = fetchScene(service, timeout, "; the objects and the arena are read from it");
+  return restricted(core::SetupCatalogue::fromScene(fromSceneMsg(scene)), private_nh);
 }
 
 }  // namespace xpersif

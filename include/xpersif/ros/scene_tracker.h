@@ -23,6 +23,12 @@
 
 namespace xpersif {
 
+/// XPERSim's scene from its get_scene operation @p service: waits up to @p timeout s for the operation, then asks
+/// again until the same deadline while it is refused NOT_ACTIVE or UNAVAILABLE or does not answer (the simulator
+/// offers get_scene before its configure has made the world). Throws std::runtime_error with a sentence (ending
+/// in @p hint when the operation never appeared).
+xpersif::Scene fetchScene(const std::string& service, double timeout, const std::string& hint = "");
+
 class SceneTracker {
  public:
   /// Subscribes to /tf at once.
