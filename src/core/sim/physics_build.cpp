@@ -226,46 +226,44 @@ double robotTop(const RobotSpec& robot) {
   return top;
 }
 
-// The robot's ArUco fiducial as XPERSim shows it: a white plate a cell wider than the marker on each side, on
-// top of the robot, and the marker's black cells (its border and its 0 bits) as thin boxes on the plate, one per
-// run of black cells in a row. The node's origin is the marker's top centre, its x axis the marker image's up.
+// The robot's ArUco fiducial as XPERSim shows it: a square of cells on top of the robot, the marker's cells in a
+// margin of one white cell on each side, drawn as one thin box per run of same-coloured cells in a row. The boxes
+// tile the square without overlapping: a black cell drawn over a white plate would lie a fraction of a millimetre
+// above it, closer than a viewer's depth buffer can tell apart (rviz's top-down orthographic view, whose depth
+// range is kilometres), and which of the two showed would depend on the viewer's drawing order.
+// The node's origin is the marker's top centre, its x axis the marker image's up.
 SceneNode fiducialNode(const RobotSpec& robot) {
-  constexpr double kPlate = 0.001, kInk = 0.0005, kGap = 0.0005;
+  constexpr double kThickness = 0.0015, kGap = 0.0005;
   const RobotSpec::Fiducial& f = robot.fiducial;
   const cv::Ptr<cv::aruco::Dictionary> dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryCode(f.dictionary));
   const cv::Mat bits = cv::aruco::Dictionary::getBitsFromByteList(dictionary->bytesList.rowRange(f.id, f.id + 1),
                                                                   dictionary->markerSize);
-  const int cells = dictionary->markerSize + 2;
+  const int cells = dictionary->markerSize + 2;  // the marker with its black border
+  const int squares = cells + 2;                 // and the white margin
   const double cell = f.size / cells;
   SceneNode node;
   node.name = robot.links.front().name + "_fiducial";
   node.parent = robot.links.front().name;
   node.parent_from_node = f.offset;
-  node.parent_from_node.translation().z() = robotTop(robot) + kGap + kPlate + kInk;
-  Visual plate;
-  plate.shape.box_size = Eigen::Vector3d(f.size + 2 * cell, f.size + 2 * cell, kPlate);
-  plate.offset.translation().z() = -kInk - kPlate / 2;
-  plate.color = Rgba{1, 1, 1, 1};
-  node.visuals.push_back(plate);
+  node.parent_from_node.translation().z() = robotTop(robot) + kGap + kThickness;
+  // Square (row, column) of the margined square: row 0 the top (+x), column 0 the left (+y), seen from above.
   auto black = [&](int row, int column) {
-    const bool border = row == 0 || column == 0 || row == cells - 1 || column == cells - 1;
-    return border || bits.at<uchar>(row - 1, column - 1) == 0;
+    const int r = row - 1, c = column - 1;  // the marker's cell
+    if (r < 0 || c < 0 || r >= cells || c >= cells) return false;
+    const bool border = r == 0 || c == 0 || r == cells - 1 || c == cells - 1;
+    return border || bits.at<uchar>(r - 1, c - 1) == 0;
   };
-  for (int row = 0; row < cells; ++row) {
-    for (int column = 0; column < cells;) {
-      if (!black(row, column)) {
-        ++column;
-        continue;
-      }
+  for (int row = 0; row < squares; ++row) {
+    for (int column = 0; column < squares;) {
+      const bool ink = black(row, column);
       int end = column;
-      while (end < cells && black(row, end)) ++end;
-      Visual ink;
-      ink.color = Rgba{0, 0, 0, 1};
-      ink.shape.box_size = Eigen::Vector3d(cell, (end - column) * cell, kInk);
-      // Row 0 is the marker's top (+x); column 0 its left (+y), seen from above.
-      ink.offset.translation() = Eigen::Vector3d((cells / 2.0 - row - 0.5) * cell,
-                                                 (cells / 2.0 - (column + end) / 2.0) * cell, -kInk / 2);
-      node.visuals.push_back(ink);
+      while (end < squares && black(row, end) == ink) ++end;
+      Visual run;
+      run.color = ink ? Rgba{0, 0, 0, 1} : Rgba{1, 1, 1, 1};
+      run.shape.box_size = Eigen::Vector3d(cell, (end - column) * cell, kThickness);
+      run.offset.translation() = Eigen::Vector3d((squares / 2.0 - row - 0.5) * cell,
+                                                 (squares / 2.0 - (column + end) / 2.0) * cell, -kThickness / 2);
+      node.visuals.push_back(run);
       column = end;
     }
   }
