@@ -334,7 +334,14 @@ TEST_F(Decision, CuriosityWaitsForMotivationOfTheRequestsRunAndRefusesAsUnavaila
   xpersif::DesignExperiment call;
   call.request.run_id = 5;
   call.request.scored = 1;
-  ASSERT_TRUE(callService(ns + "design_of_experiments/design_experiment", call));
+  // Reconfigured, DESIGNOFEXPERIMENTS refuses PRECONDITION_FAILED until VISION's next features arrive.
+  EXPECT_TRUE(waitFor(
+      [&] {
+        return callService(ns + "design_of_experiments/design_experiment", call) &&
+               call.response.code != xpersif::ResultCode::PRECONDITION_FAILED;
+      },
+      20.0))
+      << call.response.message;
   EXPECT_FALSE(call.response.success);
   EXPECT_EQ(call.response.code, xpersif::ResultCode::UNAVAILABLE) << call.response.message;
   EXPECT_NE(call.response.message.find("MOTIVATION"), std::string::npos) << call.response.message;
