@@ -13,9 +13,8 @@ work=$(mktemp -d)
 keep=${VIEW_SCREENSHOT_DIR:-/tmp/xpersif_view_screenshot}
 mkdir -p "$keep" "$work/telesim"
 export ROS_LOG_DIR=$work/ros_log
-display=":$((90 + RANDOM % 100))"
-Xvfb "$display" -screen 0 1280x900x24 >"$work/xvfb.log" 2>&1 &
-xvfb=$!
+source "$repo/test/xvfb.sh"
+start_xvfb "$work" 1280x900x24
 source "$repo/test/main_job.sh"  # stop PID
 cleanup() {
   [[ -n "${run:-}" ]] && stop "$run"

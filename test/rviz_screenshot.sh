@@ -14,9 +14,8 @@ esac
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 work=$(mktemp -d)
-display=":$((90 + RANDOM % 100))"
-Xvfb "$display" -screen 0 1280x900x24 >"$work/xvfb.log" 2>&1 &
-xvfb=$!
+source "$repo/test/xvfb.sh"
+start_xvfb "$work" 1280x900x24
 cleanup() {
   kill -INT "${launch:-0}" 2>/dev/null || true
   wait "${launch:-0}" 2>/dev/null || true
@@ -25,14 +24,31 @@ cleanup() {
 }
 trap cleanup EXIT
 export DISPLAY=$display LIBGL_ALWAYS_SOFTWARE=1
-roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersim.launch rviz:=true rviz_config:="$repo/test/rviz_topdown.rviz" \
-  "${world_arg[@]}" >"$work/launch.log" 2>&1 &
-launch=$!
-# Software GL is slow to start: wait until rviz has a window, then a little for markers and the robot.
-for _ in $(seq 1 90); do
-  xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null && break
-  sleep 1
-done
+has_window() { xwininfo -root -tree 2>/dev/null | grep -i rviz >/dev/null; }
+start_view() {
+  roslaunch -p "${ROS_MASTER_URI##*:}" xpersif xpersim.launch rviz:=true rviz_config:="$repo/test/rviz_topdown.rviz" \
+    "${world_arg[@]}" >>"$work/launch.log" 2>&1 &
+  launch=$!
+  # Software GL is slow to start: wait until rviz has a window, then a little for markers and the robot.
+  for _ in $(seq 1 90); do
+    has_window && return 0
+    sleep 1
+  done
+}
+start_view
+# rviz under software GL has once died within seconds of starting (as rviz_main_screenshot.sh saw): once, start
+# it again; a second time is a failure, with the launch's own words.
+if ! has_window; then
+  echo "rviz showed no window on $display within 90 s; starting it once more"
+  kill -INT "$launch" 2>/dev/null || true
+  wait "$launch" 2>/dev/null || true
+  start_view
+fi
+if ! has_window; then
+  echo "FAIL: rviz showed no window on $display, twice; the launch's last lines:"
+  tail -n 30 "$work/launch.log"
+  exit 1
+fi
 sleep 12
 /usr/bin/import -window root "$work/shot.png"
 cp "$work/shot.png" "${RVIZ_SCREENSHOT:-/tmp/xpersif_rviz_screenshot_$mode.png}"

@@ -70,10 +70,8 @@ EOF2
 check_browser chromium
 # Firefox (Debian's firefox-esr) in a window on a virtual display: headless Firefox has no WebGL.
 if [[ -x /usr/bin/firefox-esr ]]; then
-  display=:$((90 + RANDOM % 400))
-  Xvfb "$display" -screen 0 1400x900x24 >"$work/xvfb.log" 2>&1 &
-  xvfb=$!
-  sleep 1
+  source "$repo/test/xvfb.sh"
+  start_xvfb "$work" 1400x900x24
   DISPLAY=$display check_browser firefox
   kill "$xvfb" 2>/dev/null || true
 else
