@@ -2,7 +2,6 @@
 
 #include <opencv2/core.hpp>
 
-#include "xpersif/core/common/validation.h"
 
 namespace xpersif {
 
@@ -15,11 +14,10 @@ RenderedCamera::RenderedCamera(ros::NodeHandle nh, std::string camera, const std
 
 void RenderedCamera::onScene() {
   const core::SceneDescription scene = tracker_->scene();
-  const core::CameraModel* model = scene.findCamera(name_);
+  std::string problem;
+  const core::CameraModel* model = core::chooseCamera(scene, name_, problem);
   if (!model) {
-    std::vector<std::string> names;
-    for (const auto& c : scene.cameras) names.push_back(c.name);
-    if (on_error_) on_error_(core::checkKnownName("camera", name_, names));
+    if (on_error_) on_error_(problem);
     return;
   }
   auto renderer = std::make_unique<core::Renderer>(scene);
@@ -30,6 +28,11 @@ void RenderedCamera::onScene() {
     renderer_ = std::move(renderer);
   }
   if (on_ready_) on_ready_();
+}
+
+std::string RenderedCamera::name() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return camera_.name.empty() ? name_ : camera_.name;
 }
 
 bool RenderedCamera::ready() const {

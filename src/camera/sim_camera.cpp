@@ -14,7 +14,7 @@ SimCamera::SimCamera(ros::NodeHandle nh, ros::NodeHandle private_nh)
 const core::ParameterTable& SimCamera::parameters() {
   static const core::ParameterTable table(
       "sim_camera",
-      {core::textParameter("camera", "", "the scene's camera to render; required"),
+      {core::textParameter("camera", "", "the scene's camera to render: its name, or fixed (the one camera the robot does not carry) or on_robot (the one it carries); required"),
        core::numberParameter("rate", 30.0, 0.1, 1000.0, "Hz of simulated time"),
        core::textParameter("scene_topic", "xpersim/scene", "XPERSim's scene"),
        core::flagParameter("report_buffer_address", false,

@@ -34,7 +34,7 @@ double mean(const std::vector<double>& values) {
 
 /// What the viewer is asked to do (its private parameters).
 struct Options {
-  std::string camera_name = "overhead", xpersim = "/xpersif/xpersim", service, output_dir, video_path;
+  std::string camera_name = xpersif::core::kFixedCamera, xpersim = "/xpersif/xpersim", service, output_dir, video_path;
   double max_fps = 30, duration = 0;
   int save_every = 0;
   bool display = false;
@@ -144,7 +144,7 @@ void report(const Options& options, const FrameStats& stats, const RenderStats& 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "telesim_view", ros::init_options::AnonymousName);
   ros::NodeHandle nh, pnh("~");
-  const Options options = readOptions(pnh);
+  Options options = readOptions(pnh);
   if (!(options.max_fps > 0 && options.max_fps <= 1000)) {
     ROS_FATAL("~max_fps must lie in (0, 1000]");
     return 2;
@@ -159,11 +159,13 @@ int main(int argc, char** argv) {
     return 1;
   }
   const xpersif::core::SceneDescription scene = tracker->scene();
-  const xpersif::core::CameraModel* camera = scene.findCamera(options.camera_name);
+  std::string problem;
+  const xpersif::core::CameraModel* camera = xpersif::core::chooseCamera(scene, options.camera_name, problem);
   if (!camera) {
-    ROS_FATAL_STREAM("telesim_view: the scene has no camera '" << options.camera_name << "'");
+    ROS_FATAL_STREAM("telesim_view: " << problem);
     return 1;
   }
+  options.camera_name = camera->name;  // the files it writes carry the camera's own name
   xpersif::core::Renderer renderer(scene);
   FrameStats stats;
   tracker->onFrame([&stats] { stats.onFrame(); });

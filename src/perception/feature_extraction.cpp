@@ -19,7 +19,7 @@ const core::ParameterTable& FeatureExtraction::parameters() {
   static const core::ParameterTable table = [] {
     core::ParameterTable own(
         "feature_extraction",
-        {core::textParameter("camera", "", "the scene's camera the images come from; required"),
+        {core::textParameter("camera", "", "the scene's camera the images come from: its name, or fixed (the one camera the robot does not carry) or on_robot (the one it carries); required"),
          core::textParameter("image_topic", "camera/image_raw", "the images to extract features from"),
          core::textParameter("scene_topic", "xpersim/scene", "XPERSim's scene"),
          core::flagParameter("report_buffer_address", false,
@@ -62,11 +62,10 @@ void FeatureExtraction::onScene() {
     std::lock_guard<std::mutex> lock(mutex_);
     name = camera_name_;
   }
-  const core::CameraModel* model = scene.findCamera(name);
+  std::string problem;
+  const core::CameraModel* model = core::chooseCamera(scene, name, problem);
   if (!model) {
-    std::vector<std::string> names;
-    for (const auto& c : scene.cameras) names.push_back(c.name);
-    reportError(core::checkKnownName("~camera", name, names));
+    reportError("~camera: " + problem);
     return;
   }
   {

@@ -8,7 +8,7 @@ namespace xpersif {
 
 Observation::Observation(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : AggregateComponent(nh, private_nh, "xpersif/ObservationNodelet"),
-      camera_(addPart<CameraPart>("camera", nh, "overhead",
+      camera_(addPart<CameraPart>("camera", nh, core::kFixedCamera,
                                   [this](const RenderedCamera& camera) {
                                     extraction_.setCamera(camera.scene(), camera.model());
                                   })),
@@ -30,7 +30,7 @@ const core::ParameterTable& Observation::parameters() {
          FrameSchedule::modeParameter(),
          core::flagParameter("report_buffer_address", false,
                              "test hook: publish each image's buffer address on ~buffer_address (zero-copy checks)"),
-         core::textParameter("camera/name", "overhead", "part camera: the scene's camera to render"),
+         core::textParameter("camera/name", core::kFixedCamera, "part camera: the scene's camera to render: its name, or fixed (the one camera the robot does not carry)"),
          core::textParameter("camera/scene_topic", "xpersim/scene", "part camera: XPERSim's scene")});
     own.include(FeatureExtractionPart::parameters(), "feature_extraction/").include(LockstepClient::parameters());
     return own;

@@ -9,7 +9,7 @@ Perception::Perception(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : AggregateComponent(nh, private_nh, "xpersif/PerceptionNodelet"),
       ir_ring_(addPart<LatestMessagePart<IrRanges>>("ir_ring", nh, "ir")),
       odometry_(addPart<LatestMessagePart<nav_msgs::Odometry>>("odometry", nh, "odom")),
-      camera_(addPart<CameraPart>("camera", nh, "robot_camera", [this](const RenderedCamera& c) { onScene(c); })),
+      camera_(addPart<CameraPart>("camera", nh, core::kCameraOnRobot, [this](const RenderedCamera& c) { onScene(c); })),
       extraction_(addPart<FeatureExtractionPart>("feature_extraction")),
       schedule_(camera_, [this](const ros::Time& lockstep_stamp) { return tick(lockstep_stamp); }) {
   core::Contract read_ir;
@@ -54,7 +54,7 @@ const core::ParameterTable& Perception::parameters() {
          core::numberParameter("ir_ring/timeout", 2.0, 1e-6, 3600.0, "part ir_ring: s of ROS time without ranges before it is a problem"),
          core::textParameter("odometry/topic", "odom", "part odometry: the odometry's topic"),
          core::numberParameter("odometry/timeout", 2.0, 1e-6, 3600.0, "part odometry: s of ROS time without odometry before it is a problem"),
-         core::textParameter("camera/name", "robot_camera", "part camera: the scene's camera to render"),
+         core::textParameter("camera/name", core::kCameraOnRobot, "part camera: the scene's camera to render: its name, or on_robot (the one camera the robot carries)"),
          core::textParameter("camera/scene_topic", "xpersim/scene", "part camera: XPERSim's scene")});
     own.include(FeatureExtractionPart::parameters(), "feature_extraction/").include(LockstepClient::parameters());
     return own;

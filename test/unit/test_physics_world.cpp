@@ -709,3 +709,47 @@ TEST(PhysicsWorld, AWorldStateThatIsNotOneOfThisWorldIsRefusedAndChangesNothing)
   EXPECT_THROW(world.restoreState(huge), ValidationError);
   EXPECT_EQ(world.saveState(), good);
 }
+
+// Components choose their camera by its mount unless told a name: a world names its cameras as it likes.
+TEST(PhysicsWorld, CamerasAreChosenByNameOrByMountWhateverTheWorldCallsThem) {
+  for (const std::string& file : shippedWorldFiles()) {
+    const SceneDescription scene = PhysicsWorld(loadWorldFile(file)).scene();
+    std::string problem;
+    const CameraModel* fixed = chooseCamera(scene, kFixedCamera, problem);
+    ASSERT_NE(fixed, nullptr) << file << ": " << problem;
+    EXPECT_FALSE(carriedByRobot(scene, *fixed)) << file;
+    const CameraModel* on_robot = chooseCamera(scene, kCameraOnRobot, problem);
+    ASSERT_NE(on_robot, nullptr) << file << ": " << problem;
+    EXPECT_TRUE(carriedByRobot(scene, *on_robot)) << file;
+  }
+  WorldSpec spec = defaultWorld();
+  ASSERT_EQ(spec.cameras.size(), 2u);
+  for (CameraSpec& c : spec.cameras) {
+    c.model.name = c.parent == "world" ? "top" : "front";
+    c.model.frame = c.model.name + "_optical";
+  }
+  std::string problem;
+  {
+    const SceneDescription scene = PhysicsWorld(spec).scene();
+    EXPECT_EQ(chooseCamera(scene, kFixedCamera, problem)->name, "top");
+    EXPECT_EQ(chooseCamera(scene, kCameraOnRobot, problem)->name, "front");
+    EXPECT_EQ(chooseCamera(scene, "front", problem)->name, "front");
+    EXPECT_EQ(chooseCamera(scene, "overhead", problem), nullptr);
+    EXPECT_NE(problem.find("top (fixed), front (on the robot)"), std::string::npos) << problem;
+  }
+  CameraSpec side = spec.cameras.front().parent == "world" ? spec.cameras.front() : spec.cameras.back();
+  side.model.name = "side";
+  side.model.frame = "side_optical";
+  side.parent_from_optical.translation().x() += 0.5;
+  spec.cameras.push_back(side);
+  spec.cameras.erase(std::remove_if(spec.cameras.begin(), spec.cameras.end(),
+                                    [](const CameraSpec& c) { return c.model.name == "front"; }),
+                     spec.cameras.end());
+  const SceneDescription scene = PhysicsWorld(spec).scene();
+  EXPECT_EQ(chooseCamera(scene, kFixedCamera, problem), nullptr);
+  EXPECT_NE(problem.find("has 2 cameras fixed in the arena"), std::string::npos) << problem;
+  EXPECT_NE(problem.find("~camera/name"), std::string::npos) << problem;
+  EXPECT_EQ(chooseCamera(scene, "side", problem)->name, "side");
+  EXPECT_EQ(chooseCamera(scene, kCameraOnRobot, problem), nullptr);
+  EXPECT_NE(problem.find("has no camera carried by the robot"), std::string::npos) << problem;
+}

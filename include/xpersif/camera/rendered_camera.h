@@ -27,7 +27,8 @@ namespace xpersif {
 
 class RenderedCamera {
  public:
-  /// @param on_error called (from a callback thread) when the scene has no camera called @p camera
+  /// @param camera a camera's name, or a mount word (core::kFixedCamera, core::kCameraOnRobot; core::chooseCamera)
+  /// @param on_error called (from a callback thread) when the scene has no camera that @p camera chooses
   /// @param on_ready called (from a callback thread) each time a scene with the camera has arrived
   RenderedCamera(ros::NodeHandle nh, std::string camera, const std::string& scene_topic,
               std::function<void(const std::string&)> on_error, std::function<void()> on_ready = nullptr);
@@ -39,7 +40,8 @@ class RenderedCamera {
   sensor_msgs::ImagePtr render(std::uint32_t seq, core::FrameTransforms* world_from_node = nullptr) const;
   sensor_msgs::CameraInfo info(const std_msgs::Header& header) const;
 
-  const std::string& name() const { return name_; }
+  /// The camera's name in the scene once it is known; until then the name or mount word it was asked for.
+  std::string name() const;
   core::CameraModel model() const;
   core::SceneDescription scene() const;
   /// The camera's optical frame, as it hangs from its parent node (fixed: cameras are rigidly mounted).

@@ -35,6 +35,46 @@ const CameraModel* SceneDescription::findCamera(const std::string& name) const {
   return nullptr;
 }
 
+bool carriedByRobot(const SceneDescription& scene, const CameraModel& camera) {
+  if (scene.robot_root.empty()) return false;
+  std::size_t steps = 0;  // a malformed scene (a cycle) must not hang the question
+  for (const SceneNode* node = scene.findNode(camera.frame); node && steps <= scene.nodes.size(); ++steps) {
+    if (node->name == scene.robot_root) return true;
+    node = scene.findNode(node->parent);
+  }
+  return false;
+}
+
+const CameraModel* chooseCamera(const SceneDescription& scene, const std::string& wanted, std::string& problem) {
+  problem.clear();
+  if (const CameraModel* named = scene.findCamera(wanted)) return named;
+  std::string cameras;
+  for (const auto& c : scene.cameras) {
+    cameras += (cameras.empty() ? "" : ", ") + c.name + (carriedByRobot(scene, c) ? " (on the robot)" : " (fixed)");
+  }
+  if (cameras.empty()) cameras = "none";
+  const std::string world = scene.world_file.empty() ? "the scene" : scene.world_file;
+  if (wanted != kFixedCamera && wanted != kCameraOnRobot) {
+    problem = "camera '" + wanted + "' is not one of " + world + "'s cameras (" + cameras + "), nor '" +
+              kFixedCamera + "' or '" + kCameraOnRobot + "' (the one camera with that mount)";
+    return nullptr;
+  }
+  const bool on_robot = wanted == kCameraOnRobot;
+  const CameraModel* chosen = nullptr;
+  int fitting = 0;
+  for (const auto& c : scene.cameras) {
+    if (carriedByRobot(scene, c) != on_robot) continue;
+    if (!chosen) chosen = &c;
+    ++fitting;
+  }
+  if (fitting == 1) return chosen;
+  const std::string mount = on_robot ? "carried by the robot" : "fixed in the arena (not carried by the robot)";
+  problem = fitting == 0 ? world + " has no camera " + mount + "; its cameras: " + cameras
+                         : world + " has " + std::to_string(fitting) + " cameras " + mount + " (" + cameras +
+                               "): name the one to use in the component's ~camera/name";
+  return nullptr;
+}
+
 double lowestPoint(const Shape& shape, const Eigen::Isometry3d& t) {
   const Eigen::Vector3d c = t.translation();
   switch (shape.type) {

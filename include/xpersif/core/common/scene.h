@@ -89,6 +89,22 @@ struct SceneDescription {
   const CameraModel* findCamera(const std::string& name) const;
 };
 
+/// Words that choose a camera by its mount rather than its name (components' `~camera/name`): the world file
+/// names its cameras as it likes.
+inline constexpr const char* kFixedCamera = "fixed";       ///< the one camera the robot does not carry
+inline constexpr const char* kCameraOnRobot = "on_robot";  ///< the one camera the robot carries
+
+/// Whether @p camera hangs (through fixed nodes) from the scene's robot.
+bool carriedByRobot(const SceneDescription& scene, const CameraModel& camera);
+
+/**
+ * @brief The camera @p wanted chooses: the scene's camera of that name, else, for kFixedCamera or
+ *        kCameraOnRobot, the one camera with that mount.
+ * @return nullptr, with @p problem set to a sentence naming the scene's cameras and their mounts, when no camera
+ *         or several fit
+ */
+const CameraModel* chooseCamera(const SceneDescription& scene, const std::string& wanted, std::string& problem);
+
 /// Height of the lowest point of @p shape placed at @p world_from_shape (exact for spheres, boxes and
 /// cylinders): what it takes to set a thing down on the floor.
 double lowestPoint(const Shape& shape, const Eigen::Isometry3d& world_from_shape);
