@@ -275,6 +275,11 @@ for other in ${ONLY:-$takes}; do
     failed=$((failed + 1))
     # A participant dropped from the lockstep clock (it reported too late) changes what the physics did.
     grep -h "did not report tick" "$work/first.launch.log" "$work/$other.launch.log" 2>/dev/null | sed 's/^/determinism: /' || true
+    # What DESIGNOFEXPERIMENTS chose from (the scene, the stream, curiosity) in both takes, where they part.
+    for take_name in first "$other"; do
+      echo "determinism: $take_name's designs:"
+      grep -aoh "designed run .*" "$work/$take_name.launch.log" 2>/dev/null | head -8 | cut -c1-600 | sed 's/^/  /' || true
+    done
   fi
 done
 if [ -s "$work/interruptions" ]; then

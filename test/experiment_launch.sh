@@ -107,7 +107,7 @@ new_master
 code=0
 roslaunch -p "$PORT" xpersif experiment.launch experiment:="$HERE/experiments/short.yaml" run_dir:="$A" \
   status_file:="$T/again.status" >"$T/again.log" 2>&1 || code=$?
-read -r status sentence <"$T/again.status" || fail "no status file for a refused run directory"
+read -r status sentence <"$T/again.status" || { tail -20 "$T/again.log"; fail "no status file for a refused run directory (roslaunch exit $code)"; }
 [ "$status" = 2 ] || fail "a run directory that already holds a knowledge base: status $status ($sentence)"
 case "$sentence" in *"already holds a knowledge base"*) ;; *) fail "the sentence: $sentence" ;; esac
 cmp -s "$A.status" "$A/status" || fail "the refused run overwrote the first run's status"

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <optional>
 #include <set>
+#include <sstream>
 
 #include "xpersif/core/motion/push_motion.h"
 #include "xpersif/decision/decision_common.h"
@@ -390,6 +391,17 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
                           (have_motivation_ ? "" : " (no motivation yet: every region unexplored)");
   }
   response.message = choice.toString();
+  // The inputs beside the choice, one line per design: when two runs of one seed part, their logs say which input
+  // differed (the determinism test prints these lines of both).
+  std::ostringstream scene;
+  scene.precision(5);
+  for (std::size_t i = 0; i < request.scene_objects.size() && i < request.scene_poses.size(); ++i) {
+    scene << (i ? " " : "") << request.scene_objects[i] << "@" << request.scene_poses[i].x << ","
+          << request.scene_poses[i].y << "," << request.scene_poses[i].theta;
+  }
+  ROS_INFO("%s: designed run %lu experiment %u: %s; %s; stream %llu; scene %s", name().c_str(),
+           static_cast<unsigned long>(request.run_id), request.experiment + 1, response.message.c_str(),
+           response.rationale.c_str(), static_cast<unsigned long long>(request.stream), scene.str().c_str());
 }
 
 }  // namespace xpersif
