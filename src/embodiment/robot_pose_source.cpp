@@ -39,6 +39,7 @@ void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
     pending_fix_.reset();
     observation_.reset();
     correction_.reset();
+    last_sighting_.reset();
   }
   try {
     correction_.addOdometry(odom->header.stamp.toSec(), pose);
@@ -57,7 +58,10 @@ void RobotPoseSource::onOdometry(const nav_msgs::Odometry::ConstPtr& odom) {
 void RobotPoseSource::applyFix(const FeatureVector& features) {
   pending_fix_.reset();
   try {
-    correction_.addFix(features.header.stamp.toSec(), {features.robot.x, features.robot.y, features.robot.theta});
+    const core::Pose2D seen{features.robot.x, features.robot.y, features.robot.theta};
+    if (correction_.addFix(features.header.stamp.toSec(), seen).empty()) {
+      last_sighting_ = std::make_pair(features.header.stamp, seen);
+    }
   } catch (const std::exception& e) {
     ROS_WARN_THROTTLE(5.0, "ignoring a robot fix: %s", e.what());
   }
@@ -127,6 +131,11 @@ std::string RobotPoseSource::poseForCommand(const std::string& source, core::Pos
     }
   }
   return pose(source, pose_out);
+}
+
+std::optional<std::pair<ros::Time, core::Pose2D>> RobotPoseSource::lastSighting() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_sighting_;
 }
 
 void RobotPoseSource::velocity(double* linear, double* angular) const {

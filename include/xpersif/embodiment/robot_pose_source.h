@@ -16,6 +16,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <geometry_msgs/Pose2D.h>
@@ -49,6 +50,9 @@ class RobotPoseSource {
   std::string poseForCommand(const std::string& source, core::Pose2D* pose, double patience = 2.0) const;
   /// "" when @p source is a known pose source.
   static std::string checkSource(const std::string& source);
+  /// The overhead camera's latest sighting of the robot that was applied as a fix: its image's stamp and pose.
+  /// Between sightings the "observation" pose runs on with odometry, which overshoots while the wheels slip.
+  std::optional<std::pair<ros::Time, core::Pose2D>> lastSighting() const;
   /// Latest speeds from odometry.
   void velocity(double* linear, double* angular) const;
   bool hasOdometry() const;
@@ -78,6 +82,7 @@ class RobotPoseSource {
   ros::Time odometry_stamp_;
   std::optional<FeatureVector> pending_fix_;  // a fix newer than the odometry heard so far
   core::OdometryCorrection correction_;
+  std::optional<std::pair<ros::Time, core::Pose2D>> last_sighting_;
   double linear_ = 0, angular_ = 0;
   ros::Time last_odometry_;
   FeatureVector::ConstPtr observation_;
