@@ -6,6 +6,10 @@
 
 namespace xpersif {
 
+namespace {
+constexpr double kTfPatience = 5.0;  // s of wall time; a dead simulator costs the camera this much once
+}  // namespace
+
 core::ParameterSpec FrameSchedule::modeParameter() {
   return core::textParameter("lockstep_frames", "on_request",
                              "lockstep: on_request renders when an actor asks (a controller's fix) and whenever the "
@@ -48,7 +52,14 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
   if (!t.idle && !asked && t.physics_time + 1e-9 < next_due_) return;
   bool published = false;
   auto camera = camera_.camera();
-  if (camera && camera->tracker().waitForStamp(t.stamp, 2.0)) published = render_(t.stamp);  // well within the clock's patience
+  // A skipped frame makes a different experiment (doc/lockstep.md): wait long for the tick's tf, yet within the
+  // clock's patience (XPerSim's ~participant_timeout, 10 s by default), and say so when it never came.
+  if (camera && camera->tracker().waitForStamp(t.stamp, kTfPatience)) {
+    published = render_(t.stamp);
+  } else if (camera) {
+    ROS_WARN("tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
+             "experiment from here on)", static_cast<unsigned long long>(t.tick), t.stamp.toSec(), kTfPatience);
+  }
   if (!t.idle) {
     next_due_ = periodic_ ? (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_
                           : std::numeric_limits<double>::infinity();
