@@ -16,8 +16,8 @@ fi
 bash "$repo/scripts/setup.sh" --tests
 source "$repo/scripts/env.sh"
 set -u
-# One job per core: the ROS systems run in two lanes of their own (test/CMakeLists.txt, "Scheduling").
 rm -f "$repo/build/flaky_tests.txt"
+# One job per core: the ROS systems run in two lanes of their own (test/CMakeLists.txt, "Scheduling").
 status=0
 ctest --test-dir "$repo/build" --output-on-failure -j "$(nproc)" "$@" || status=$?
 # A few failures get one more take each, alone: the ROS systems share two cores with whatever else runs, and a
