@@ -8,6 +8,9 @@ namespace xpersif {
 
 namespace {
 constexpr double kTfPatience = 5.0;  // s of wall time; a dead simulator costs the camera this much once
+// Before the first tf, the subscription may not be connected yet: the frame is skipped as before, soon (the next
+// idle tick renders), rather than holding the clock at start-up.
+constexpr double kFirstTfPatience = 2.0;
 }  // namespace
 
 core::ParameterSpec FrameSchedule::modeParameter() {
@@ -54,11 +57,13 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
   auto camera = camera_.camera();
   // A skipped frame makes a different experiment (doc/lockstep.md): wait long for the tick's tf, yet within the
   // clock's patience (XPerSim's ~participant_timeout, 10 s by default), and say so when it never came.
-  if (camera && camera->tracker().waitForStamp(t.stamp, kTfPatience)) {
+  const double patience = camera && camera->tracker().framesReceived() > 0 ? kTfPatience : kFirstTfPatience;
+  if (camera && camera->tracker().waitForStamp(t.stamp, patience)) {
     published = render_(t.stamp);
   } else if (camera) {
     ROS_WARN("tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
-             "experiment from here on)", static_cast<unsigned long long>(t.tick), t.stamp.toSec(), kTfPatience);
+             "experiment from here on unless the world stands)", static_cast<unsigned long long>(t.tick),
+             t.stamp.toSec(), patience);
   }
   if (!t.idle) {
     next_due_ = periodic_ ? (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_
