@@ -326,9 +326,11 @@ std::string DesignOfExperiments::awaitInputs(const DesignExperiment::Request& re
   const auto of_run = [&](std::uint64_t run) { return request.run_id == 0 || run == request.run_id; };
   if (design_->usesCuriosity() &&
       !motivated_.wait_for(lock, wait, [&] { return of_run(motivation_run_) && motivation_scored_ >= request.scored; })) {
+    const std::string latest = have_motivation_ ? "its latest message: run " + std::to_string(motivation_run_) + ", " +
+                                                      std::to_string(motivation_scored_) + " experiments"
+                                                : "no message from it heard yet";
     return "MOTIVATION has not yet spoken of the run's first " + std::to_string(request.scored) +
-           " successful experiments (its latest message: run " + std::to_string(motivation_run_) + ", " +
-           std::to_string(motivation_scored_) + " experiments; this request: run " + std::to_string(request.run_id) + ")";
+           " successful experiments (" + latest + "; this request: run " + std::to_string(request.run_id) + ")";
   }
   if (design_->usesHistory() &&
       !history_grew_.wait_for(lock, wait, [&] { return of_run(history_run_) && history_done_ >= request.scored; })) {

@@ -334,11 +334,13 @@ TEST_F(Decision, CuriosityWaitsForMotivationOfTheRequestsRunAndRefusesAsUnavaila
   xpersif::DesignExperiment call;
   call.request.run_id = 5;
   call.request.scored = 1;
-  // Reconfigured, DESIGNOFEXPERIMENTS refuses PRECONDITION_FAILED until VISION's next features arrive.
+  // Reconfigured, DESIGNOFEXPERIMENTS refuses PRECONDITION_FAILED until VISION's next features arrive, and its new
+  // subscription hears the latched run-4 message when it has connected (more than 0.5 s on a loaded machine).
   EXPECT_TRUE(waitFor(
       [&] {
         return callService(ns + "design_of_experiments/design_experiment", call) &&
-               call.response.code != xpersif::ResultCode::PRECONDITION_FAILED;
+               call.response.code != xpersif::ResultCode::PRECONDITION_FAILED &&
+               call.response.message.find("run 4") != std::string::npos;
       },
       20.0))
       << call.response.message;
