@@ -319,10 +319,7 @@ void Manipulation::noteSighting(const core::PushController& controller, ros::Tim
   const auto seen = drive_.poseSource()->lastSighting();
   if (!seen || seen->first <= *last) return;
   *last = seen->first;
-  const core::PushPlan& plan = controller.plan();
-  const double along = (seen->second.x - plan.contact.x) * std::cos(plan.direction) +
-                       (seen->second.y - plan.contact.y) * std::sin(plan.direction);
-  *most = std::max(*most, along);
+  *most = std::max(*most, core::pastContact(controller.plan(), seen->second));
 }
 
 std::optional<CommandOutcome> Manipulation::observeAfterPush(Push::Context& context, ControlTicker& ticker,

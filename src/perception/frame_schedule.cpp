@@ -57,13 +57,15 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
   auto camera = camera_.camera();
   // A skipped frame makes a different experiment (doc/lockstep.md): wait long for the tick's tf, yet within the
   // clock's patience (XPerSim's ~participant_timeout, 10 s by default), and say so when it never came.
-  const double patience = camera && camera->tracker().framesReceived() > 0 ? kTfPatience : kFirstTfPatience;
-  if (camera && camera->tracker().waitForStamp(t.stamp, patience)) {
-    published = render_(t.stamp);
-  } else if (camera) {
-    ROS_WARN("tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
-             "experiment from here on unless the world stands)", static_cast<unsigned long long>(t.tick),
-             t.stamp.toSec(), patience);
+  if (camera) {
+    const double patience = camera->tracker().framesReceived() > 0 ? kTfPatience : kFirstTfPatience;
+    if (camera->tracker().waitForStamp(t.stamp, patience)) {
+      published = render_(t.stamp);
+    } else {
+      ROS_WARN("tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
+               "experiment from here on unless the world stands)", static_cast<unsigned long long>(t.tick),
+               t.stamp.toSec(), patience);
+    }
   }
   if (!t.idle) {
     next_due_ = periodic_ ? (std::floor(t.physics_time * rate_ + 1e-6) + 1) / rate_

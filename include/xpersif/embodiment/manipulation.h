@@ -55,11 +55,11 @@ class Manipulation : public Component {
   /// done (@p done: its last feedback), else how the command ended (stopped, cancelled, pose lost, failed).
   std::optional<CommandOutcome> runPush(Push::Context& context, ControlTicker& ticker, const core::PushPlan& plan,
                                         const core::PathResult& path, PushResult& result, core::PushFeedback* done);
-  /// Let the object settle, then take the first observation after that into @p result (none within the wait is
-  /// no failure); nothing, or how the command ended when it was stopped while the object settled.
   /// The camera's newest sighting of the robot (after @p last) during contact, push or retreat: the farthest
   /// along the push line in @p most.
   void noteSighting(const core::PushController& controller, ros::Time* last, double* most) const;
+  /// Let the object settle, then take the first observation after that into @p result (none within the wait is
+  /// no failure); nothing, or how the command ended when it was stopped while the object settled.
   std::optional<CommandOutcome> observeAfterPush(Push::Context& context, ControlTicker& ticker, PushResult& result);
 
   mutable std::mutex mutex_;

@@ -197,6 +197,10 @@ std::string PushControlOptions::check() const {
   return p;
 }
 
+double pastContact(const PushPlan& plan, const Pose2D& pose) {
+  return (pose.x - plan.contact.x) * std::cos(plan.direction) + (pose.y - plan.contact.y) * std::sin(plan.direction);
+}
+
 PushController::PushController(MotionLimits limits, PushControlOptions options)
     : limits_(limits), options_(options), follower_(limits) {
   limits_.require();
@@ -389,8 +393,7 @@ PushFeedback PushController::update(const Pose2D& current, double dt) {
   const double standoff =
       std::hypot(plan_.contact.x - plan_.approach.x, plan_.contact.y - plan_.approach.y);
   const double back = std::hypot(plan_.push_end.x - plan_.retreat.x, plan_.push_end.y - plan_.retreat.y);
-  const double dx = std::cos(plan_.direction), dy = std::sin(plan_.direction);
-  const double pushed = (current.x - plan_.contact.x) * dx + (current.y - plan_.contact.y) * dy;
+  const double pushed = pastContact(plan_, current);
 
   if (phase_ == PushPhase::Approach) {
     MotionFeedback m = follower_.update(current, dt);

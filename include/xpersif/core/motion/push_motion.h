@@ -64,6 +64,9 @@ PushPlan planPush(const Obstacle& object, const PushRequest& request, double rob
                   const ArenaGeometry& arena, const std::vector<Obstacle>& others,
                   const PushOptions& options = {});
 
+/// Signed m @p pose lies past @p plan's contact pose along the push direction (negative before contact).
+double pastContact(const PushPlan& plan, const Pose2D& pose);
+
 enum class PushPhase { Idle, Approach, Contact, Push, Retreat, Done, Stopped, Failed };
 std::string toString(PushPhase phase);  ///< "idle", "approach", "contact", "push", "retreat", "done", ...
 
