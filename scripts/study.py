@@ -16,7 +16,8 @@ Two arms besides the designs: random_null (random design on other seeds: what ch
 design on the learnable objects that move, known from the evaluation set; it starts when that set is done). The
 report's primary measure is study_measures.py's.
 A study that was interrupted resumes when run again with the same OUT: finished cells (status 0 and their curve)
-are skipped, unfinished ones are run again from scratch. The report (OUT/report/) comes from the knowledge bases
+are skipped, unfinished ones are run again from scratch. Run again with more seeds or designs (and otherwise the same
+arguments), it is extended: the finished cells are kept and only the new ones run. The report (OUT/report/) comes from the knowledge bases
 and run directories alone: `--report-only` writes it again.
 `--backend slurm` runs the cells as Slurm job arrays instead (scripts/study_slurm.py, doc/slurm.md): OUT must be on a
 filesystem the nodes share.
@@ -231,6 +232,19 @@ class Cell:
         return s is not None and s[0] == 0 and os.path.exists(os.path.join(self.run_dir, "knowledge.db"))
 
 
+def extension(old, new):
+    """What @p new adds to the stored study @p old when it only adds seeds or designs (the same world, budget,
+    evaluation set and parameters, so the finished cells stay valid), as a phrase; None when it is another study."""
+    same_rest = all(old.get(k) == new.get(k) for k in set(old) | set(new) if k not in ("seeds", "designs"))
+    seeds = [s for s in new["seeds"] if s not in old.get("seeds", [])]
+    designs = [d for d in new["designs"] if d not in old.get("designs", [])]
+    if not same_rest or not set(old.get("seeds", [])) <= set(new["seeds"]) or \
+            not set(old.get("designs", [])) <= set(new["designs"]) or not (seeds or designs):
+        return None
+    parts = (["seeds " + ",".join(map(str, seeds))] if seeds else []) + (["designs " + ",".join(designs)] if designs else [])
+    return " and ".join(parts)
+
+
 def plan(args, eval_objects):
     os.makedirs(os.path.join(args.out, "experiments"), exist_ok=True)
     defn = definition(args, eval_objects)
@@ -239,9 +253,14 @@ def plan(args, eval_objects):
         with open(stored) as f:
             old = json.load(f)
         if old != defn:
-            diff = [k for k in defn if old.get(k) != defn[k]]
-            fail("%s holds another study (its %s differ from these arguments); resume it with the same arguments or "
-                 "use another --out" % (args.out, ", ".join(diff)))
+            added = extension(old, defn)
+            if added is None:
+                diff = [k for k in defn if old.get(k) != defn[k]]
+                fail("%s holds another study (its %s differ from these arguments); resume it with the same arguments, "
+                     "add seeds or designs to it, or use another --out" % (args.out, ", ".join(diff)))
+            print("study: extending %s with %s; its finished cells are kept" % (args.out, added), file=sys.stderr)
+            with open(stored, "w") as f:
+                json.dump(defn, f, indent=2)
     else:
         with open(stored, "w") as f:
             json.dump(defn, f, indent=2)

@@ -5,7 +5,8 @@
 #  - test/study_check.py: the report's files exist and its figures agree with the knowledge bases (evaluation set
 #    only on the learnable objects, per-cell counts, curves and per-object curves recomputed, the null's seeds, the
 #    oracle's objects, the primary measure recomputed on its own, reach, shares per object, goals);
-#  - the same command again resumes: every cell is skipped and the report is the same.
+#  - the same command again resumes: every cell is skipped and the report is the same;
+#  - the same command with one more design extends it: only the new cells run.
 #   bash test/study.sh BUILD_DIR        KEEP=1 keeps the study's directory
 set -eo pipefail
 HERE=$(cd "$(dirname "$0")/.." && pwd)
@@ -36,6 +37,17 @@ started=$SECONDS
 grep -q "9 of 9 cells already finished" "$T/second.log" || { cat "$T/second.log"; fail "resuming did not skip the finished cells"; }
 cmp -s "$T/cells_first.csv" "$T/study/report/cells.csv" || fail "the resumed study's report differs"
 echo "ok: the same command again skipped every cell ($((SECONDS - started)) s) and wrote the same figures"
+
+# More designs with the same arguments extend the study: the finished cells are kept, only round robin's two run,
+# and the report covers all of them.
+extended=(--seeds 2 --designs random,random_null,learning_progress,oracle,round_robin --budget 10 --goals 1
+          --evaluation-size 8 --every 1 --jobs 2 --out "$T/study")
+/usr/bin/python3 "$HERE/scripts/study.py" "${extended[@]}" 2>"$T/extended.log" || { cat "$T/extended.log"; fail "extending failed"; }
+grep -q "extending .* with designs round_robin" "$T/extended.log" || { cat "$T/extended.log"; fail "no sentence for the extension"; }
+grep -q "9 of 11 cells already finished" "$T/extended.log" || { cat "$T/extended.log"; fail "extending ran finished cells again"; }
+grep -q "^round_robin," "$T/study/report/cells.csv" || fail "the extended report has no round_robin row"
+/usr/bin/python3 "$HERE/test/study_check.py" "$T/study" "$BUILD/devel/lib/xpersif/xpersif_study_curve" || fail "the extended report disagrees with the knowledge bases"
+echo "ok: two more cells extended the study and its report ($(head -1 "$T/extended.log"))"
 
 # Another study in the same directory is refused with a sentence.
 if /usr/bin/python3 "$HERE/scripts/study.py" --seeds 3 --designs random --budget 10 --out "$T/study" 2>"$T/third.log"; then
