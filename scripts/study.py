@@ -471,10 +471,33 @@ def curve(cell, args, evaluation):
     return ""
 
 
+TOOL_SENTENCE = re.compile(r"^(xpersif[\w-]*: .*)$")
+ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|\x1b\][^\x07]*\x07")
+
+
+def console_cause(run_dir):
+    """The first sentence one of our tools wrote to the cell's console (e.g. xpersif_experiment refusing the world
+    before the launch began), or ''."""
+    try:
+        with open(os.path.join(run_dir, "console.log"), errors="replace") as f:
+            for line in f:
+                m = TOOL_SENTENCE.match(ANSI.sub("", line).strip())
+                if m:
+                    return m.group(1)
+    except OSError:
+        pass
+    return ""
+
+
 def failure_of(args, cell, status):
-    """Why a cell failed: its own status; under Slurm, what the backend found (it holds the status and Slurm's word)."""
+    """Why a cell failed: its own status; under Slurm, what the backend found (it holds the status and Slurm's word);
+    else what its console says."""
     first = (cell.outcome, status) if args.backend == "slurm" else (status, cell.outcome)
-    return first[0] or first[1] or (1, "ended without an outcome; see %s/console.log" % cell.run_dir)
+    if first[0] or first[1]:
+        return first[0] or first[1]
+    cause = console_cause(cell.run_dir)
+    return (1, "ended without an outcome: %s (%s/console.log)" % (cause, cell.run_dir) if cause else
+            "ended without an outcome; see %s/console.log" % cell.run_dir)
 
 
 def run_cells(args, cells):
@@ -1154,10 +1177,24 @@ def check_study_is_there(args):
         fail("--report-only: %s holds no study (no study.json: run the study there first)" % args.out, 3)
 
 
+def check_world(world):
+    """A world the runs cannot load (its robot's URDF missing, a malformed file) is refused before any cell starts,
+    with `xpersif check-world`'s sentence, instead of every cell failing twice on it."""
+    try:
+        out = subprocess.run(["xpersif", "check-world", world], capture_output=True, text=True, timeout=600)
+    except (OSError, subprocess.TimeoutExpired):
+        return  # no checker here: the cells will say what is wrong
+    if out.returncode == 3:  # a bad input file (doc/exit-codes.md)
+        why = out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "xpersif check-world refused it"
+        fail("the world %s cannot be used: %s" % (world, re.sub(r"^xpersif: ", "", why)), 3)
+
+
 def main(argv):
     args = parse_args(argv)
     if args.report_only:
         check_study_is_there(args)
+    else:
+        check_world(args.world)
     eval_objects, eval_why = evaluation_objects(args)
     args.eval_objects = eval_objects
     if args.evaluation_size is None:

@@ -55,4 +55,14 @@ if /usr/bin/python3 "$HERE/scripts/study.py" --seeds 3 --designs random --budget
 fi
 grep -q "holds another study" "$T/third.log" || { cat "$T/third.log"; fail "no sentence for another study"; }
 echo "ok: another study in the same directory refused: $(head -1 "$T/third.log")"
+
+# A world whose robot cannot be read is refused before any cell starts, with the sentence that says why.
+sed 's#^\( *urdf: \).*#\1no_such_robot.urdf#' "$HERE/worlds/default.yaml" > "$T/broken_world.yaml"
+if /usr/bin/python3 "$HERE/scripts/study.py" --seeds 1 --designs random --budget 2 --world "$T/broken_world.yaml" \
+    --out "$T/broken" 2>"$T/broken.log"; then
+  fail "a study on a world without its robot's URDF succeeded"
+fi
+grep -q "cannot be used: .*no_such_robot.urdf" "$T/broken.log" || { cat "$T/broken.log"; fail "no sentence naming the URDF"; }
+[ ! -d "$T/broken/cells" ] || fail "cells were started on a world that cannot be used"
+echo "ok: a world without its robot refused at once: $(head -1 "$T/broken.log")"
 echo "PASS"
