@@ -533,6 +533,29 @@ TEST(StrategicStudent, RoundRobinFirstThenTheObjectsThatProgress) {
   EXPECT_GT(chosen["green_cube"], 0);  // the floor keeps every object in play
 }
 
+TEST(StrategicStudent, AnObjectPredictedToTheFloorDoesNotTakeTheSharesOfNoisyOnes) {
+  // A generated world's study: the immovable block's errors fell from 7 cm to 0 in three pushes, the learnable puck's
+  // and bar's were noisy with no significant slope yet. The block's fall was steep, its progress tiny but the only
+  // one above 0, so it took every share but the floor (50 % of the pushes) and starved the puck (6 %).
+  std::vector<double> known{0.069, 0.044, 0.026};
+  for (int n = 4; n <= 20; ++n) known.push_back(n % 5 ? 0.0 : 0.0001);
+  EXPECT_EQ(fitObjectCurve(known).progress, 0.0);
+  StrategicStudentDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  std::mt19937 rng(11);
+  std::lognormal_distribution<double> noise(0.0, 0.7);
+  for (std::size_t n = 0; n < known.size(); ++n) c.history.push_back({"green_cube", "-x", 0, 0.05, known[n]});
+  for (int n = 1; n <= 6; ++n) {
+    for (const char* object : {"red_cube", "yellow_cube", "blue_cube"}) {
+      c.history.push_back({object, "-x", 0, 0.05, 0.03 * noise(rng)});
+    }
+  }
+  c.history_count = c.history.size();
+  const auto p = design.probabilities(c);
+  EXPECT_LE(p.at("green_cube"), 0.25 + 1e-12);  // at most an even share: nothing progresses, so uniform
+  EXPECT_GE(p.at("red_cube"), 0.2 / 4);
+}
+
 TEST(StrategicStudent, AStreamGivesTheSameChoiceAndUnreachableObjectsAreNeverChosen) {
   DesignContext c = cubes();
   c.history_count = 40;

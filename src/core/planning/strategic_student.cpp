@@ -72,7 +72,9 @@ ObjectCurveFit fitObjectCurve(const std::vector<double>& errors) {
   const std::size_t recent = std::min<std::size_t>(n, kRecentErrors);
   double level = 0;
   for (std::size_t i = n - recent; i < n; ++i) level += std::max(errors[i], 0.0) / recent;
-  if (slope < 0) fit.progress = level * (1 - std::pow((n + 1.0) / n, slope));
+  // Below the floor the model predicts the object to within the resolution the log keeps: nothing is left to learn
+  // there, however steep the fall that led to it (else its tiny progress takes every share when no other progresses).
+  if (slope < 0 && level >= kErrorFloor) fit.progress = level * (1 - std::pow((n + 1.0) / n, slope));
   return fit;
 }
 

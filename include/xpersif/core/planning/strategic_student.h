@@ -15,8 +15,8 @@
  *    Its progress is what one more push is expected to take off the error: the mean of its last 5 errors times
  *    1 - ((n+1)/n)^b', the fall of a power law with the slope b' = b + its standard error (only the part of the
  *    fall that noise rarely gives), and 0 when b' >= 0. The level comes from the recent errors, not from the fit,
- *    so an object that never moves (its errors go to 0 once the model knows it) scores nearly 0, and one that
- *    nothing predicts (its error does not fall) scores 0;
+ *    so an object that never moves (its errors go to 0 once the model knows it) scores 0 once they average below
+ *    the 1 mm floor, and one that nothing predicts (its error does not fall) scores 0;
  *  - the object is drawn in proportion to progress, with a floor: probability random_share / K for each of the K
  *    reachable objects plus (1 - random_share) times its share of the progress (uniform when none progresses).
  * Being stateless between choices (everything comes from the context's history and stream), a resumed run chooses
@@ -43,7 +43,8 @@ struct ObjectCurveFit {
   std::size_t pushes = 0;
   double a = 0, b = 0, b_se = 0;  ///< intercept, slope and the slope's standard error (0 below 3 pushes)
   /// What one more push is expected to take off the error (m): the recent errors' mean times the power law's fall
-  /// with the slope made conservative by one standard error; 0 when that slope does not fall.
+  /// with the slope made conservative by one standard error; 0 when that slope does not fall or the recent errors
+  /// average below 1 mm (the object is known: its tiny progress must not take the shares of noisier objects).
   double progress = 0;
 };
 
