@@ -17,8 +17,8 @@ design on the learnable objects that move, known from the evaluation set; it sta
 report's primary measure is study_measures.py's.
 A study that was interrupted resumes when run again with the same OUT: finished cells (status 0 and their curve)
 are skipped, unfinished ones are run again from scratch. Run again with more seeds or designs (and otherwise the same
-arguments), it is extended: the finished cells are kept and only the new ones run. The report (OUT/report/) comes from the knowledge bases
-and run directories alone: `--report-only` writes it again.
+arguments), it is extended: the finished cells are kept and only the new ones run. The report (OUT/report/) comes
+from the knowledge bases and run directories alone: `--report-only` writes it again.
 `--backend slurm` runs the cells as Slurm job arrays instead (scripts/study_slurm.py, doc/slurm.md): OUT must be on a
 filesystem the nodes share.
 """
@@ -235,14 +235,16 @@ class Cell:
 def extension(old, new):
     """What @p new adds to the stored study @p old when it only adds seeds or designs (the same world, budget,
     evaluation set and parameters, so the finished cells stay valid), as a phrase; None when it is another study."""
-    same_rest = all(old.get(k) == new.get(k) for k in set(old) | set(new) if k not in ("seeds", "designs"))
-    seeds = [s for s in new["seeds"] if s not in old.get("seeds", [])]
-    designs = [d for d in new["designs"] if d not in old.get("designs", [])]
-    if not same_rest or not set(old.get("seeds", [])) <= set(new["seeds"]) or \
-            not set(old.get("designs", [])) <= set(new["designs"]) or not (seeds or designs):
-        return None
-    parts = (["seeds " + ",".join(map(str, seeds))] if seeds else []) + (["designs " + ",".join(designs)] if designs else [])
-    return " and ".join(parts)
+    def rest(d):
+        return {k: v for k, v in d.items() if k not in ("seeds", "designs")}
+    added, dropped = [], False
+    for key in ("seeds", "designs"):
+        before, after = old.get(key, []), new[key]
+        dropped = dropped or any(v not in after for v in before)
+        more = [str(v) for v in after if v not in before]
+        if more:
+            added.append("%s %s" % (key, ",".join(more)))
+    return " and ".join(added) if rest(old) == rest(new) and not dropped and added else None
 
 
 def plan(args, eval_objects):
@@ -493,8 +495,9 @@ def failure_of(args, cell, status):
     """Why a cell failed: its own status; under Slurm, what the backend found (it holds the status and Slurm's word);
     else what its console says."""
     first = (cell.outcome, status) if args.backend == "slurm" else (status, cell.outcome)
-    if first[0] or first[1]:
-        return first[0] or first[1]
+    known = first[0] or first[1]
+    if known:
+        return known
     cause = console_cause(cell.run_dir)
     return (1, "ended without an outcome: %s (%s/console.log)" % (cause, cell.run_dir) if cause else
             "ended without an outcome; see %s/console.log" % cell.run_dir)
