@@ -2,7 +2,8 @@
 # Generated worlds run the loop (issue 38, item 3): `xpersif generate-world` for two seeds nobody tuned anything to
 # (4 and 6 objects), each checked by `xpersif check-world` and then run by loop_world.test: the grid design over
 # every object, the immovable ones named in a notion (test_loop_world reads them from the file's masses). The second
-# world's cameras are renamed (ceiling_cam, onboard): OBSERVATION and PERCEPTION take them by their mounts.
+# world's cameras are renamed (ceiling_cam, onboard): OBSERVATION and PERCEPTION take them by their mounts; it runs
+# from another directory than the one it was written to (a robot named by package://).
 # The unit test WorldGenerator.* checks 160 seeds without ROS (parse, perception at the start).
 # usage: generated_worlds.sh BUILD_DIR
 set -eo pipefail
@@ -17,8 +18,11 @@ for seed_and_count in "4101 4" "4102 6"; do
   read -r seed count <<<"$seed_and_count"
   world="$T/generated_$seed.yaml"
   xpersif generate-world --seed "$seed" --objects "$count" --out "$world"
-  # The second world names its cameras as a lab might: the components find them by their mounts.
+  # The second world names its cameras as a lab might: the components find them by their mounts. It is also moved to
+  # another directory first: its robot is named package://xpersif/..., so it loads wherever it is copied.
   if [[ $count == 6 ]]; then
+    grep -q "urdf: package://xpersif/urdf/" "$world" || { grep urdf "$world"; echo "FAIL: the robot is not named by package"; exit 1; }
+    mkdir "$T/moved" && mv "$world" "$T/moved/" && world="$T/moved/generated_$seed.yaml"
     sed -i 's/{name: overhead,/{name: ceiling_cam,/; s/{name: robot_camera,/{name: onboard,/' "$world"
     grep -q "name: ceiling_cam" "$world" && grep -q "name: onboard" "$world" || { echo "FAIL: cameras not renamed"; exit 1; }
   fi

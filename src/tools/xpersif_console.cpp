@@ -24,6 +24,7 @@
 
 #include "xpersif/core/perception/feature_extractor.h"
 #include "xpersif/core/common/command_line.h"
+#include "xpersif/core/common/package_path.h"
 #include "xpersif/core/perception/perception_check.h"
 #include "xpersif/core/sim/physics_world.h"
 #include "xpersif/core/common/setup.h"
@@ -364,13 +365,28 @@ std::string packageFile(const std::string& relative) {
   return std::string(XPERSIF_SOURCE_DIR) + "/" + relative;
 }
 
-/// `xpersif generate-world`: a world drawn from a seed (core::generateWorld), checked as check-world checks it, into
-/// FILE (its robot's URDF path relative to it) or onto stdout (an absolute path).
-int generateWorldFile(xpersif::core::WorldGeneratorOptions options, const std::string& out) {
+/// How a generated world names its robot's URDF: package://xpersif/urdf/khepera.urdf when ROS_PACKAGE_PATH finds
+/// that file (the world then loads wherever it is copied), else its path relative to FILE (absolute on stdout).
+std::string generatedRobotUrdf(const std::string& out) {
   namespace fs = std::filesystem;
   const fs::path urdf = fs::absolute(packageFile("urdf/khepera.urdf")).lexically_normal();
+  const std::string uri = "package://xpersif/urdf/khepera.urdf";
+  try {
+    std::error_code ec;
+    if (fs::equivalent(xpersif::core::resolvePackageUri(uri, xpersif::core::rosPackagePath()), urdf, ec)) return uri;
+  } catch (const std::invalid_argument&) {
+    // not on ROS_PACKAGE_PATH: a path it is
+  }
+  if (out.empty()) return urdf.string();
+  return urdf.lexically_relative(fs::absolute(out).parent_path()).string();
+}
+
+/// `xpersif generate-world`: a world drawn from a seed (core::generateWorld), checked as check-world checks it, into
+/// FILE or onto stdout.
+int generateWorldFile(xpersif::core::WorldGeneratorOptions options, const std::string& out) {
+  namespace fs = std::filesystem;
   const fs::path dir = out.empty() ? fs::current_path() : fs::absolute(out).parent_path();
-  options.robot_urdf = out.empty() ? urdf.string() : urdf.lexically_relative(dir).string();
+  options.robot_urdf = generatedRobotUrdf(out);
   std::string text;
   try {
     text = xpersif::core::generateWorld(options);

@@ -3,11 +3,14 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
+#include "xpersif/core/common/package_path.h"
 #include "xpersif/core/sim/world_spec.h"
 
 using namespace xpersif::core;
@@ -353,4 +356,79 @@ TEST(BadWorld, MalformedFrictions) {
                    {"physics.contact_episode_gap is '0'; it must be greater than zero"}));
   EXPECT_TRUE(says(refusal(kRobotAt + "objects: [{name: a, friction_noise: [0.1, 1]}]\n"), "bad.yaml",
                    {"unknown key 'friction_noise'", "friction_redraw"}));
+}
+
+// ---- package:// URDFs: a world that loads wherever it is copied ---------------------------------------------
+
+namespace {
+/// Sets ROS_PACKAGE_PATH for one test and puts back what it was.
+class PackagePathScope {
+ public:
+  explicit PackagePathScope(const std::string& value) {
+    if (const char* old = std::getenv("ROS_PACKAGE_PATH")) old_ = old;
+    ::setenv("ROS_PACKAGE_PATH", value.c_str(), 1);
+  }
+  ~PackagePathScope() {
+    if (old_) ::setenv("ROS_PACKAGE_PATH", old_->c_str(), 1);
+    else ::unsetenv("ROS_PACKAGE_PATH");
+  }
+
+ private:
+  std::optional<std::string> old_;
+};
+
+std::string packageXml(const std::string& name) {
+  return "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name> " + name + " </name>\n  <version>1.0.0</version>\n</package>\n";
+}
+}  // namespace
+
+TEST(PackageUri, FoundAsRospackFindsIt) {
+  TempDir ws;
+  const fs::path root = fs::path(ws.write("README", "")).parent_path();
+  for (const auto& dir : {"src/alpha/inner", "src/group/beta", "src/.hidden/gamma"}) fs::create_directories(root / dir);
+  ws.write("src/group/notes.txt", "a file beside packages is passed over");
+  ws.write("src/alpha/package.xml", packageXml("alpha"));
+  ws.write("src/alpha/inner/package.xml", packageXml("inner"));  // below another package: not searched
+  ws.write("src/group/beta/package.xml", packageXml("beta"));
+  ws.write("src/.hidden/gamma/package.xml", packageXml("gamma"));
+  const std::string path = "/nonexistent:" + (root / "src").string();
+
+  EXPECT_TRUE(isPackageUri("package://beta/urdf/r.urdf"));
+  EXPECT_FALSE(isPackageUri("../urdf/r.urdf"));
+  EXPECT_EQ(resolvePackageUri("package://beta/urdf/r.urdf", path), (root / "src/group/beta/urdf/r.urdf").string());
+  EXPECT_EQ(resolvePackageUri("package://alpha/a/../b.urdf", path), (root / "src/alpha/b.urdf").string());
+  // An entry that is the package itself.
+  EXPECT_EQ(resolvePackageUri("package://alpha/r.urdf", (root / "src/alpha").string()), (root / "src/alpha/r.urdf").string());
+  for (const std::string hidden : {"inner", "gamma", "nothere"}) {
+    try {
+      resolvePackageUri("package://" + hidden + "/r.urdf", path);
+      ADD_FAILURE() << hidden << " was found";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("names the package '" + hidden + "', which is not on ROS_PACKAGE_PATH"),
+                std::string::npos) << e.what();
+    }
+  }
+  for (const std::string malformed : {"package://", "package://beta", "package://beta/", "package:///r.urdf"}) {
+    try {
+      resolvePackageUri(malformed, path);
+      ADD_FAILURE() << malformed << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("must be package://PACKAGE/PATH"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(resolvePackageUri("package://beta/r.urdf", ""), std::invalid_argument);
+}
+
+TEST(PackageUri, AWorldNamingItsRobotByPackageLoadsFromAnyDirectory) {
+  TempDir elsewhere;
+  const std::string world = elsewhere.write("copied.yaml", "robot: {urdf: package://xpersif/urdf/khepera.urdf}\n");
+  {
+    PackagePathScope scope(std::string("/nonexistent:") + XPERSIF_SOURCE_DIR);
+    EXPECT_EQ(loadWorldFile(world).robot.name, "khepera");
+  }
+  PackagePathScope scope("/nonexistent");
+  const std::string said = refusal("robot: {urdf: package://xpersif/urdf/khepera.urdf}\n");
+  EXPECT_TRUE(says(said, "bad.yaml", {"robot.urdf 'package://xpersif/urdf/khepera.urdf' names the package 'xpersif', "
+                                      "which is not on ROS_PACKAGE_PATH ('/nonexistent')"}))
+      << said;
 }

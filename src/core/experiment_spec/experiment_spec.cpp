@@ -1,5 +1,6 @@
 #include "xpersif/core/experiment_spec/experiment_spec.h"
 #include "xpersif/core/planning/experiment_design.h"
+#include "xpersif/core/common/package_path.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -487,7 +488,15 @@ std::string worldRobotUrdf(const std::string& world_file) {
       !world["robot"]["urdf"].IsScalar()) {
     throw ExperimentFileError(world_file + ": robot.urdf is missing; a world names its robot's URDF");
   }
-  const fs::path urdf(world["robot"]["urdf"].Scalar());
+  const std::string named = world["robot"]["urdf"].Scalar();
+  if (isPackageUri(named)) {
+    try {
+      return resolvePackageUri(named, rosPackagePath());
+    } catch (const std::invalid_argument& e) {
+      throw ExperimentFileError(world_file + ": robot.urdf " + e.what());
+    }
+  }
+  const fs::path urdf(named);
   if (urdf.is_absolute()) return urdf.lexically_normal().string();
   return (fs::absolute(fs::path(world_file)).parent_path() / urdf).lexically_normal().string();
 }

@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "xpersif/core/common/package_path.h"
 #include "xpersif/core/common/validation.h"
 
 namespace xpersif::core {
@@ -538,7 +539,14 @@ RobotSpec parseRobot(const YAML::Node& r, const std::string& w, const std::strin
                         "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker", "fiducial"}, w);
   const std::string urdf_file = text(r, "urdf", "", w);
   if (urdf_file.empty()) fail(w, r, "needs 'urdf', the robot's URDF file");
-  const std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
+  std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
+  if (isPackageUri(urdf_file)) {
+    try {
+      urdf_path = resolvePackageUri(urdf_file, rosPackagePath());
+    } catch (const std::invalid_argument& e) {
+      fail(w + ".urdf", r["urdf"], e.what());
+    }
+  }
   RobotSpec robot = parseRobotUrdf(readFile(urdf_path, "URDF"), urdf_path);
   robot.pose = pose(r, w);
   robot.left_wheel_joint = text(r, "left_wheel_joint", "left_wheel_joint", w);

@@ -24,7 +24,7 @@ struct WorldGeneratorOptions {
   std::uint32_t seed = 1;
   int objects = 5;                 ///< 1..8
   std::vector<std::string> roles;  ///< drawn from; empty: all of worldGeneratorRoles()
-  std::string robot_urdf;          ///< the robot's URDF path as written into the file (relative to it, or absolute)
+  std::string robot_urdf;          ///< the robot's URDF as written into the file (package://, relative to it, or absolute)
 };
 
 /// The roles an object can play, in the order documented above.
