@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
         const double error = surprise(prediction, push.outcome).error;
         model->addSamples({push});
         const Experiment& e = push.input.experiment;
-        context.history.push_back({e.object, e.side, e.offset, e.distance, error});
+        context.history.push_back({e.object, e.side, e.offset, e.distance, error, push.outcome.dx, push.outcome.dy});
         campaign.pushes.push_back(push);
       }
       campaign.curve = learningCurve(name, campaign.pushes, evaluation, config, checkpoints, scope);

@@ -246,8 +246,9 @@ std::optional<core::PastExperiment> pastExperiment(const ExperimentRecord& r) {
   if (r.status != "done" || r.predicted_mean.size() != 3 || !std::isfinite(r.surprise) || r.surprise < 0) {
     return std::nullopt;
   }
+  if (!std::isfinite(r.dx) || !std::isfinite(r.dy)) return std::nullopt;
   return core::PastExperiment{r.experiment.object, r.experiment.side, r.experiment.offset, r.experiment.distance,
-                              r.surprise};
+                              r.surprise, r.dx, r.dy};
 }
 }  // namespace
 

@@ -25,6 +25,7 @@ PLUGINLIB_EXPORT_CLASS(xpersif::core::LearningProgressDesign, xpersif::core::Exp
 PLUGINLIB_EXPORT_CLASS(xpersif::core::ErrorMaxDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::StrategicStudentDesign, xpersif::core::ExperimentDesign)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::RoundRobinDesign, xpersif::core::ExperimentDesign)
+PLUGINLIB_EXPORT_CLASS(xpersif::core::ReplicateScreeningDesign, xpersif::core::ExperimentDesign)
 
 PLUGINLIB_EXPORT_CLASS(xpersif::core::BreadthFirstSearch, xpersif::core::PlanSearch)
 PLUGINLIB_EXPORT_CLASS(xpersif::core::GreedyGoalCountSearch, xpersif::core::PlanSearch)

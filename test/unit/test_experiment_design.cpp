@@ -456,6 +456,7 @@ TEST(ExperimentDesign, InitializeRestartsFromTheSeed) {
     if (name == "error_max") plugin = std::make_unique<ErrorMaxDesign>();
     if (name == "strategic_student") plugin = std::make_unique<StrategicStudentDesign>();
     if (name == "round_robin") plugin = std::make_unique<RoundRobinDesign>();
+    if (name == "replicate_screening") plugin = std::make_unique<ReplicateScreeningDesign>();
     ASSERT_TRUE(plugin) << name;
     plugin->initialize(11, options);
     const auto expected = run(*made, c, 12);
@@ -588,4 +589,81 @@ TEST(RoundRobin, EveryObjectInTurnAndARandomPushOnIt) {
   EXPECT_EQ(counts["blue_cube"], 4);
   EXPECT_EQ(distances.size(), 8u);  // pushes drawn at random, not a grid
   EXPECT_EQ(makeDesign("round_robin", 3)->next(c).object, makeDesign("round_robin", 4)->next(c).object);
+}
+
+// ---- replicate screening ------------------------------------------------------------------------------------
+
+TEST(ReplicateScreening, TheSpreadOfReplicatedPushes) {
+  // Deterministic: the same push moved the cube 40 and 41 mm; redrawn friction: 15 and 60 mm; a block that never
+  // moves: 0 and 0 (its spread is relative to 5 mm, not to nothing).
+  const PastExperiment a{"c", "-x", 0.004, 0.05, 0.01, 0.040, 0.002}, a2{"c", "-x", 0.005, 0.052, 0.01, 0.041, 0.001};
+  EXPECT_EQ(replicateSpread({a, a2}).pairs, 1u);
+  EXPECT_LT(replicateSpread({a, a2}).spread, 0.05);
+  const PastExperiment n{"c", "+y", 0.0, 0.08, 0.02, 0.015, 0.0}, n2{"c", "+y", 0.0, 0.08, 0.02, 0.060, -0.01};
+  EXPECT_GT(replicateSpread({n, n2}).spread, kNoisySpread);
+  const PastExperiment z{"c", "+x", 0.0, 0.03, 0.0, 0.0, 0.0};
+  EXPECT_EQ(replicateSpread({z, z}).spread, 0.0);
+  // Not the same design point: another side, offset or distance.
+  const PastExperiment side{"c", "+x", 0.004, 0.05, 0.01, 0.1, 0}, offset{"c", "-x", 0.010, 0.05, 0.01, 0.1, 0},
+      far{"c", "-x", 0.004, 0.07, 0.01, 0.1, 0};
+  EXPECT_EQ(replicateSpread({a, side, offset, far}).pairs, 0u);
+  EXPECT_EQ(replicateSpread({}).spread, 0.0);
+  // The median over the pairs: one odd pair among alike ones does not make an object noise.
+  EXPECT_LT(replicateSpread({a, a2, a, a2, PastExperiment{"c", "-x", 0.004, 0.05, 0.01, 0.09, 0}}).spread, kNoisySpread);
+  EXPECT_THROW(replicateSpread({a, PastExperiment{"c", "-x", 0, 0.05, 0.01, NAN, 0}}), ValidationError);
+}
+
+TEST(ReplicateScreening, AWarmUpOfPushesAndTheirReplicates) {
+  ReplicateScreeningDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  const std::size_t k = c.objects.size();
+  std::vector<ExperimentChoice> first;
+  for (std::size_t i = 0; i < 2 * k; ++i) {
+    c.history_count = i;
+    const ExperimentChoice choice = design.next(c);
+    EXPECT_EQ(choice.object, c.objects[i % k].name) << i;
+    if (i < k) {
+      first.push_back(choice);
+    } else {  // the same push again
+      EXPECT_EQ(choice.side, first[i - k].side);
+      EXPECT_DOUBLE_EQ(choice.offset, first[i - k].offset);
+      EXPECT_DOUBLE_EQ(choice.distance, first[i - k].distance);
+      EXPECT_NE(choice.rationale.find("replicate"), std::string::npos) << choice.rationale;
+    }
+    c.history.push_back({choice.object, choice.side, choice.offset, choice.distance, 0.02, 0.03, 0.0});
+  }
+  // A replicate the planner would refuse from here: a uniform push instead, and the rationale says so.
+  c.history.resize(k);
+  c.history_count = k;
+  c.feasible = [&](const ExperimentChoice& e) { return !(e.side == first[0].side && e.offset == first[0].offset); };
+  const ExperimentChoice instead = design.next(c);
+  EXPECT_EQ(instead.object, c.objects[0].name);
+  EXPECT_NE(instead.rationale.find("not feasible"), std::string::npos) << instead.rationale;
+}
+
+TEST(ReplicateScreening, NoiseAndKnownObjectsGetTheFloorTheLearnableShareTheRest) {
+  ReplicateScreeningDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  // red answers a push alike and its error is 2 cm; green never moves and is known; yellow and blue answered the same
+  // push with 10 and 50 mm (friction redrawn).
+  for (int round = 0; round < 3; ++round) {
+    c.history.push_back({"red_cube", "-x", 0.0, 0.05, 0.02, 0.045 + 0.001 * round, 0.0});
+    c.history.push_back({"green_cube", "-x", 0.0, 0.05, round ? 0.0 : 0.03, 0.0, 0.0});
+    c.history.push_back({"yellow_cube", "+y", 0.0, 0.06, 0.03, round % 2 ? 0.05 : 0.01, 0.0});
+    c.history.push_back({"blue_cube", "+y", 0.0, 0.06, 0.03, round % 2 ? 0.01 : 0.05, 0.01});
+  }
+  c.history.push_back({"green_cube", "-x", 0.0, 0.05, 0.0, 0.0, 0.0});
+  c.history_count = c.history.size();
+  const auto p = design.probabilities(c);
+  EXPECT_NEAR(p.at("red_cube"), 0.2 / 4 + 0.8, 1e-12);
+  for (const char* other : {"green_cube", "yellow_cube", "blue_cube"}) EXPECT_NEAR(p.at(other), 0.2 / 4, 1e-12) << other;
+  // Each choice after the warm-up: red most of the time; the stream gives the same choice to any instance.
+  std::map<std::string, int> chosen;
+  for (int i = 0; i < 400; ++i) chosen[design.next(c).object]++;
+  EXPECT_GT(chosen["red_cube"], 280);
+  EXPECT_GT(chosen["blue_cube"], 0);
+  c.stream = 42;
+  ReplicateScreeningDesign other(99, DesignOptions{});
+  EXPECT_TRUE(same(design.next(c), other.next(c)));
+  EXPECT_EQ(makeDesign("replicate_screening", 1)->next(c).object, design.next(c).object);
 }

@@ -264,7 +264,8 @@ ExperimentChoice CuriosityDesign::next(const DesignContext& context) {
 // ---- factory ----------------------------------------------------------------------------------------------
 
 std::vector<std::string> designNames() {
-  return {"curiosity", "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin"};
+  return {"curiosity", "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin",
+          "replicate_screening"};
 }
 
 std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned long seed,
@@ -276,6 +277,7 @@ std::unique_ptr<ExperimentDesign> makeDesign(const std::string& name, unsigned l
   if (name == "error_max") return std::make_unique<ErrorMaxDesign>(seed, options);
   if (name == "strategic_student") return std::make_unique<StrategicStudentDesign>(seed, options);
   if (name == "round_robin") return std::make_unique<RoundRobinDesign>(seed, options);
+  if (name == "replicate_screening") return std::make_unique<ReplicateScreeningDesign>(seed, options);
   return std::make_unique<GridDesign>(options);
 }
 

@@ -120,6 +120,116 @@ ExperimentChoice StrategicStudentDesign::next(const DesignContext& context) {
   return pushOn(reachable[i], reachable, context, options_, rng_, why.str());
 }
 
+// ---- replicate screening ----------------------------------------------------------------------------------
+
+namespace {
+
+constexpr double kReplicateOffset = 0.003;    // m: pushes this close in offset and
+constexpr double kReplicateDistance = 0.006;  // in distance (same side) are the same design point
+constexpr double kMinMotion = 0.005;          // m: the spread of smaller motions is relative to this
+constexpr std::size_t kKnownErrors = 3;       // an object whose last errors average below kErrorFloor is known
+
+std::map<std::string, std::vector<PastExperiment>> pushesByObject(const std::vector<PastExperiment>& history) {
+  std::map<std::string, std::vector<PastExperiment>> pushes;
+  for (const auto& past : history) pushes[past.object].push_back(past);
+  return pushes;
+}
+
+/// Whether the model can still learn @p pushes' object: it answers the same push alike, and is not known yet.
+bool learnable(const std::vector<PastExperiment>& pushes) {
+  const ReplicateSpread replicates = replicateSpread(pushes);
+  if (replicates.pairs > 0 && replicates.spread > kNoisySpread) return false;
+  if (pushes.size() < 2) return true;
+  const std::size_t recent = std::min(pushes.size(), kKnownErrors);
+  double level = 0;
+  for (std::size_t i = pushes.size() - recent; i < pushes.size(); ++i) level += pushes[i].error / recent;
+  return level >= kErrorFloor;
+}
+
+}  // namespace
+
+ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes) {
+  std::vector<double> spreads;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    requireFinite("moved_x", pushes[i].moved_x);
+    requireFinite("moved_y", pushes[i].moved_y);
+    for (std::size_t j = 0; j < i; ++j) {
+      const PastExperiment &a = pushes[j], &b = pushes[i];
+      if (a.side != b.side || std::fabs(a.offset - b.offset) > kReplicateOffset ||
+          std::fabs(a.distance - b.distance) > kReplicateDistance) {
+        continue;
+      }
+      const double mean_motion = (std::hypot(a.moved_x, a.moved_y) + std::hypot(b.moved_x, b.moved_y)) / 2;
+      spreads.push_back(std::hypot(a.moved_x - b.moved_x, a.moved_y - b.moved_y) / std::max(mean_motion, kMinMotion));
+    }
+  }
+  ReplicateSpread result;
+  result.pairs = spreads.size();
+  if (spreads.empty()) return result;
+  std::sort(spreads.begin(), spreads.end());
+  const std::size_t m = spreads.size() / 2;
+  result.spread = spreads.size() % 2 ? spreads[m] : (spreads[m - 1] + spreads[m]) / 2;
+  return result;
+}
+
+void ReplicateScreeningDesign::initialize(unsigned long seed, const DesignOptions& options) {
+  options.validate();
+  options_ = options;
+  rng_.seed(seed);
+}
+
+std::map<std::string, double> ReplicateScreeningDesign::probabilities(const DesignContext& context) const {
+  const auto reachable = reachableObjects(context);
+  const auto pushes = pushesByObject(context.history);
+  std::map<std::string, bool> learns;
+  double count = 0;
+  for (const auto& object : reachable) {
+    const auto found = pushes.find(object.name);
+    count += learns[object.name] = found == pushes.end() || learnable(found->second);
+  }
+  std::map<std::string, double> p;
+  const double k = static_cast<double>(reachable.size()), floor = options_.random_share;
+  for (const auto& object : reachable) {
+    p[object.name] = count > 0 ? floor / k + (1 - floor) * (learns[object.name] ? 1 / count : 0) : 1 / k;
+  }
+  return p;
+}
+
+ExperimentChoice ReplicateScreeningDesign::next(const DesignContext& context) {
+  const auto reachable = reachableObjects(context);
+  if (context.stream) rng_.seed(*context.stream);
+  const std::size_t warmup = 2 * context.objects.size();
+  const DesignObject* object = nullptr;
+  std::string why;
+  if (context.history_count < warmup) {
+    object = &roundRobinObject(context, context.history_count);
+    why = "replicate screening: round robin, " + std::to_string(context.history_count + 1) + " of " +
+          std::to_string(warmup);
+  } else {
+    const auto p = probabilities(context);
+    std::vector<double> weights;
+    for (const auto& o : reachable) weights.push_back(p.at(o.name));
+    object = &reachable[std::discrete_distribution<std::size_t>(weights.begin(), weights.end())(rng_)];
+    std::ostringstream chosen;
+    chosen << "replicate screening: " << object->name << " with probability " << std::setprecision(2)
+           << p.at(object->name);
+    why = chosen.str();
+  }
+  // Until the object has its replicated pairs, its last push again: how alike it answers is what is learnable of it.
+  const auto pushes = pushesByObject(context.history);
+  const auto found = pushes.find(object->name);
+  if (found != pushes.end() && replicateSpread(found->second).pairs < kReplicatePairs) {
+    const PastExperiment& last = found->second.back();
+    ExperimentChoice again{last.object, last.side, last.offset, last.distance, ""};
+    if (!context.feasible || context.feasible(again)) {
+      again.rationale = why + "; its last push again (a replicate)";
+      return again;
+    }
+    why += " (its last push again is not feasible from here)";
+  }
+  return pushOn(*object, reachable, context, options_, rng_, why);
+}
+
 // ---- round robin ----------------------------------------------------------------------------------------
 
 void RoundRobinDesign::initialize(unsigned long seed, const DesignOptions& options) {

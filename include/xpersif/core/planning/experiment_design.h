@@ -51,6 +51,8 @@ struct PastExperiment {
   double offset = 0;    ///< m
   double distance = 0;  ///< m
   double error = 0;     ///< m, >= 0
+  double moved_x = 0;   ///< m, the object's motion along the push (the outcome's dx, in the push frame)
+  double moved_y = 0;   ///< m, and to the push's left (dy)
 };
 
 struct DesignContext {
@@ -204,7 +206,7 @@ class CuriosityDesign : public ExperimentDesign {
 };
 
 /// The designs of this package under the names experiment_design_plugins.xml gives them ("curiosity",
-/// "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
+/// "random", "grid", "learning_progress", "error_max", "strategic_student", "round_robin", "replicate_screening"), for tools and tests without pluginlib; DESIGNOFEXPERIMENTS loads designs by name
 /// through pluginlib, which also finds other packages' designs.
 std::vector<std::string> designNames();
 

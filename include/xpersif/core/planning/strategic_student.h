@@ -23,6 +23,18 @@
  * as the uninterrupted one.
  *
  * Round robin ("round_robin"): the reachable objects in turn, by the number of experiments done so far.
+ *
+ * Replicate screening ("replicate_screening"): what a model can learn of an object is bounded by how differently the
+ * object answers the same push (the pure error of a replicated design point). So:
+ *  - a warm-up of two round-robin rounds: a uniform push on each object, then the same push again (a replicate);
+ *    an object chosen later with fewer than kReplicatePairs replicated pairs gets its last push again (one pair:
+ *    each replicate teaches the model next to nothing, and two cost more than they told in design_replay);
+ *  - an object whose replicated pushes moved it differently (the median over its pairs of |outcome difference| /
+ *    max(mean |outcome|, 5 mm) above kNoisySpread) is noise to the model and gets only the floor; so does one whose
+ *    last errors average below the 1 mm floor (it is known); the others are what is left to learn, and share the
+ *    rest equally (the study's measure weighs every object that moves equally);
+ *  - probabilities as the strategic student's: random_share / K each, plus (1 - random_share) over the learnable.
+ * Stateless between choices, as the strategic student.
  */
 #pragma once
 
@@ -55,6 +67,37 @@ class StrategicStudentDesign : public ExperimentDesign {
  public:
   StrategicStudentDesign() = default;
   StrategicStudentDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
+  void initialize(unsigned long seed, const DesignOptions& options) override;
+  ExperimentChoice next(const DesignContext& context) override;
+  bool usesHistory() const override { return true; }
+  /// Each reachable object's probability of being chosen after the warm-up (for rationales and tests).
+  std::map<std::string, double> probabilities(const DesignContext& context) const;
+
+ private:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+};
+
+/// Replicated pairs per object the replicate screening wants before it trusts an object's spread.
+constexpr std::size_t kReplicatePairs = 1;
+/// Above this relative spread of replicated outcomes, an object is noise to the model (measured on 2026-11-28's
+/// studies: deterministic objects 0.03-0.06 median, 0.15 at the 90th percentile; friction redrawn per push 0.37-0.94).
+constexpr double kNoisySpread = 0.25;
+
+/// How differently an object answered the same push: its pairs of pushes with the same side and, within 3 mm and
+/// 6 mm, the same offset and distance (so that the nearest pooled pushes of an offline replay count too).
+struct ReplicateSpread {
+  std::size_t pairs = 0;
+  double spread = 0;  ///< the pairs' median |outcome difference| / max(mean |outcome|, 5 mm); 0 without pairs
+};
+
+/// The spread of @p pushes (one object's, in order).
+ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes);
+
+class ReplicateScreeningDesign : public ExperimentDesign {
+ public:
+  ReplicateScreeningDesign() = default;
+  ReplicateScreeningDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
   void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
   bool usesHistory() const override { return true; }
