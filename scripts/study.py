@@ -816,6 +816,10 @@ def measures_section(measured, moving, move_shares, ev_rows, eval_objects):
             row["design"], row["seeds"], cell(row["area"]), paired, " | ".join(cell(row["error_" + n]) for n in names),
             "%.0f %% (%.0f–%.0f %%)" % tuple(100 * x for x in frac) if frac else "–"))
     md.append("")
+    if measured.get("oracle_gains") is False:
+        md.append("The oracle gains nothing over random that this study can tell (its area ratio's interval reaches 1), "
+                  "so no design's fraction of its gain is given.")
+        md.append("")
     null_row = next((r for r in measured["rows"] if r["design"] == study_measures.NULL), None)
     if null_row:
         r, lo, hi = null_row["area"]

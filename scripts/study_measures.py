@@ -215,6 +215,15 @@ def measures(cells, objects, budget, seed=0):
         r, lo, hi = null_row["area"]
         out["null_ok"] = lo <= 1.0 <= hi
         out["null_seeds"] = min(null_row["seeds"], len(base))
+    # A fraction of a gain the oracle does not show (its area ratio's interval reaches 1: in a world where every object
+    # is learnable, the oracle is random design) is a ratio of two noises: thousands of per cent, either sign.
+    oracle_row = next((r for r in out["rows"] if r["design"] == ORACLE), None)
+    if oracle_row and oracle_row["area"] and oracle_row["area"][2] >= 1.0:
+        out["oracle_gains"] = False
+        for row in out["rows"]:
+            row.pop("oracle_fraction", None)
+    elif oracle_row and oracle_row["area"]:
+        out["oracle_gains"] = True
     return out
 
 

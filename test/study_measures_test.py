@@ -99,6 +99,19 @@ class Measures(unittest.TestCase):
         self.assertAlmostEqual(f, 0.0)
         self.assertIsNone(sm.oracle_fraction(base, base, base, rng))  # an oracle that gains nothing shares nothing
 
+    def test_no_fraction_of_a_gain_the_oracle_does_not_show(self):
+        # Every object learnable: the oracle is random design, and a fraction of its "gain" would be noise over noise.
+        rng = random.Random(11)
+        cells = study(rng, {"random": 1.0, "oracle": 1.0, "better": 0.8}, range(1, 9), ["a", "b"], noise=0.3)
+        out = sm.measures(cells, ["a", "b"], 40)
+        self.assertIs(out["oracle_gains"], False)
+        self.assertTrue(all("oracle_fraction" not in row for row in out["rows"]))
+        # ... and with an oracle that gains, the fraction is there.
+        cells = study(random.Random(11), {"random": 1.0, "oracle": 0.6, "better": 0.8}, range(1, 9), ["a", "b"], noise=0.3)
+        out = sm.measures(cells, ["a", "b"], 40)
+        self.assertIs(out["oracle_gains"], True)
+        self.assertIn("oracle_fraction", next(r for r in out["rows"] if r["design"] == "better"))
+
     def test_more_seeds_detect_smaller_effects(self):
         rng = random.Random(9)
         few = [rng.gauss(0, 0.2) for _ in range(5)]
