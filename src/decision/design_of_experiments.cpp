@@ -112,7 +112,8 @@ const core::ParameterTable& DesignOfExperiments::parameters() {
                                "region designs: softmax temperature, relative to the largest interest"),
          core::numberParameter("random_share", d.random_share, 0.0, 1.0,
                                "region designs: probability of a uniformly random push over the whole space; "
-                               "strategic_student: the share of its choices spread evenly over the objects"),
+                               "strategic_student and replicate_screening: the share of their choices spread evenly over the "
+                               "objects"),
          core::numberParameter("progress_confidence", d.progress_confidence, 0.0, 10.0,
                                "learning_progress: progress counts only beyond this many standard errors of the "
                                "windows' difference (0: the plain difference)"),
