@@ -80,7 +80,7 @@ ObjectCurveFit fitObjectCurve(const std::vector<double>& errors) {
 
 // ---- the strategic student ------------------------------------------------------------------------------
 
-void StrategicStudentDesign::initialize(unsigned long seed, const DesignOptions& options) {
+void ObjectLevelDesign::initialize(unsigned long seed, const DesignOptions& options) {
   options.validate();
   options_ = options;
   rng_.seed(seed);
@@ -172,12 +172,6 @@ ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes) {
   return result;
 }
 
-void ReplicateScreeningDesign::initialize(unsigned long seed, const DesignOptions& options) {
-  options.validate();
-  options_ = options;
-  rng_.seed(seed);
-}
-
 std::map<std::string, double> ReplicateScreeningDesign::probabilities(const DesignContext& context) const {
   const auto reachable = reachableObjects(context);
   const auto pushes = pushesByObject(context.history);
@@ -231,12 +225,6 @@ ExperimentChoice ReplicateScreeningDesign::next(const DesignContext& context) {
 }
 
 // ---- round robin ----------------------------------------------------------------------------------------
-
-void RoundRobinDesign::initialize(unsigned long seed, const DesignOptions& options) {
-  options.validate();
-  options_ = options;
-  rng_.seed(seed);
-}
 
 ExperimentChoice RoundRobinDesign::next(const DesignContext& context) {
   const auto reachable = reachableObjects(context);

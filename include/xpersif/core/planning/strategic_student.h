@@ -63,19 +63,24 @@ struct ObjectCurveFit {
 /// The fit of @p errors (held-out errors of an object's pushes, in order).
 ObjectCurveFit fitObjectCurve(const std::vector<double>& errors);
 
-class StrategicStudentDesign : public ExperimentDesign {
+/// What the object-level designs share: validated options and a generator reseeded from each choice's stream.
+class ObjectLevelDesign : public ExperimentDesign {
+ public:
+  void initialize(unsigned long seed, const DesignOptions& options) override;
+
+ protected:
+  DesignOptions options_;
+  std::mt19937_64 rng_;
+};
+
+class StrategicStudentDesign : public ObjectLevelDesign {
  public:
   StrategicStudentDesign() = default;
   StrategicStudentDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
-  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
   bool usesHistory() const override { return true; }
   /// Each reachable object's probability of being chosen after the warm-up (for rationales and tests).
   std::map<std::string, double> probabilities(const DesignContext& context) const;
-
- private:
-  DesignOptions options_;
-  std::mt19937_64 rng_;
 };
 
 /// Replicated pairs per object the replicate screening wants before it trusts an object's spread.
@@ -94,31 +99,21 @@ struct ReplicateSpread {
 /// The spread of @p pushes (one object's, in order).
 ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes);
 
-class ReplicateScreeningDesign : public ExperimentDesign {
+class ReplicateScreeningDesign : public ObjectLevelDesign {
  public:
   ReplicateScreeningDesign() = default;
   ReplicateScreeningDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
-  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
   bool usesHistory() const override { return true; }
   /// Each reachable object's probability of being chosen after the warm-up (for rationales and tests).
   std::map<std::string, double> probabilities(const DesignContext& context) const;
-
- private:
-  DesignOptions options_;
-  std::mt19937_64 rng_;
 };
 
-class RoundRobinDesign : public ExperimentDesign {
+class RoundRobinDesign : public ObjectLevelDesign {
  public:
   RoundRobinDesign() = default;
   RoundRobinDesign(unsigned long seed, const DesignOptions& options) { initialize(seed, options); }
-  void initialize(unsigned long seed, const DesignOptions& options) override;
   ExperimentChoice next(const DesignContext& context) override;
-
- private:
-  DesignOptions options_;
-  std::mt19937_64 rng_;
 };
 
 }  // namespace xpersif::core
