@@ -81,4 +81,9 @@ std::string resolvePackageUri(const std::string& uri, const std::string& ros_pac
                               "); source the workspace's setup, or give the file's path");
 }
 
+std::string resolveNamedFile(const std::string& named, const std::string& base_dir) {
+  if (isPackageUri(named)) return resolvePackageUri(named, rosPackagePath());
+  return !named.empty() && named[0] == '/' ? named : base_dir + "/" + named;
+}
+
 }  // namespace xpersif::core

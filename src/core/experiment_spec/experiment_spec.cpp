@@ -488,17 +488,14 @@ std::string worldRobotUrdf(const std::string& world_file) {
       !world["robot"]["urdf"].IsScalar()) {
     throw ExperimentFileError(world_file + ": robot.urdf is missing; a world names its robot's URDF");
   }
-  const std::string named = world["robot"]["urdf"].Scalar();
-  if (isPackageUri(named)) {
-    try {
-      return resolvePackageUri(named, rosPackagePath());
-    } catch (const std::invalid_argument& e) {
-      throw ExperimentFileError(world_file + ": robot.urdf " + e.what());
-    }
+  try {
+    return fs::path(resolveNamedFile(world["robot"]["urdf"].Scalar(),
+                                     fs::absolute(fs::path(world_file)).parent_path().string()))
+        .lexically_normal()
+        .string();
+  } catch (const std::invalid_argument& e) {
+    throw ExperimentFileError(world_file + ": robot.urdf " + e.what());
   }
-  const fs::path urdf(named);
-  if (urdf.is_absolute()) return urdf.lexically_normal().string();
-  return (fs::absolute(fs::path(world_file)).parent_path() / urdf).lexically_normal().string();
 }
 
 std::string worldWithRobot(const std::string& world_file, const std::string& urdf) {

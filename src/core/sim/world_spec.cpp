@@ -539,13 +539,11 @@ RobotSpec parseRobot(const YAML::Node& r, const std::string& w, const std::strin
                         "wheel_friction", "body_friction", "ir_sensors", "ir_range", "heading_marker", "fiducial"}, w);
   const std::string urdf_file = text(r, "urdf", "", w);
   if (urdf_file.empty()) fail(w, r, "needs 'urdf', the robot's URDF file");
-  std::string urdf_path = urdf_file[0] == '/' ? urdf_file : base_dir + "/" + urdf_file;
-  if (isPackageUri(urdf_file)) {
-    try {
-      urdf_path = resolvePackageUri(urdf_file, rosPackagePath());
-    } catch (const std::invalid_argument& e) {
-      fail(w + ".urdf", r["urdf"], e.what());
-    }
+  std::string urdf_path;
+  try {
+    urdf_path = resolveNamedFile(urdf_file, base_dir);
+  } catch (const std::invalid_argument& e) {
+    fail(w + ".urdf", r["urdf"], e.what());
   }
   RobotSpec robot = parseRobotUrdf(readFile(urdf_path, "URDF"), urdf_path);
   robot.pose = pose(r, w);

@@ -23,4 +23,8 @@ std::string rosPackagePath();
 /// NAME or PATH, or no package NAME is found. The file itself is not checked (its reader says if it is missing).
 std::string resolvePackageUri(const std::string& uri, const std::string& ros_package_path);
 
+/// The file a world (or any file in @p base_dir) names as @p named: a package:// URI resolved on ROS_PACKAGE_PATH, an
+/// absolute path as it is, else @p base_dir/@p named. Throws std::invalid_argument as resolvePackageUri does.
+std::string resolveNamedFile(const std::string& named, const std::string& base_dir);
+
 }  // namespace xpersif::core
