@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <tuple>
 
 #include "xpersif/core/common/validation.h"
 
@@ -149,16 +150,24 @@ bool learnable(const std::vector<PastExperiment>& pushes) {
 }  // namespace
 
 ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes) {
+  // By side and offset, so that each push is compared only with the few within kReplicateOffset of it: a run of
+  // thousands of pushes per object stays cheap at every choice (all pairs would be quadratic).
+  std::vector<const PastExperiment*> sorted;
+  for (const auto& push : pushes) {
+    requireFinite("moved_x", push.moved_x);
+    requireFinite("moved_y", push.moved_y);
+    sorted.push_back(&push);
+  }
+  std::sort(sorted.begin(), sorted.end(), [](const PastExperiment* a, const PastExperiment* b) {
+    return std::tie(a->side, a->offset) < std::tie(b->side, b->offset);
+  });
   std::vector<double> spreads;
-  for (std::size_t i = 0; i < pushes.size(); ++i) {
-    requireFinite("moved_x", pushes[i].moved_x);
-    requireFinite("moved_y", pushes[i].moved_y);
-    for (std::size_t j = 0; j < i; ++j) {
-      const PastExperiment &a = pushes[j], &b = pushes[i];
-      if (a.side != b.side || std::fabs(a.offset - b.offset) > kReplicateOffset ||
-          std::fabs(a.distance - b.distance) > kReplicateDistance) {
-        continue;
-      }
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    const PastExperiment& a = *sorted[i];
+    for (std::size_t j = i + 1;
+         j < sorted.size() && sorted[j]->side == a.side && sorted[j]->offset - a.offset <= kReplicateOffset; ++j) {
+      const PastExperiment& b = *sorted[j];
+      if (std::fabs(a.distance - b.distance) > kReplicateDistance) continue;
       const double mean_motion = (std::hypot(a.moved_x, a.moved_y) + std::hypot(b.moved_x, b.moved_y)) / 2;
       spreads.push_back(std::hypot(a.moved_x - b.moved_x, a.moved_y - b.moved_y) / std::max(mean_motion, kMinMotion));
     }
