@@ -218,12 +218,11 @@ def measures(cells, objects, budget, seed=0):
     # A fraction of a gain the oracle does not show (its area ratio's interval reaches 1: in a world where every object
     # is learnable, the oracle is random design) is a ratio of two noises: thousands of per cent, either sign.
     oracle_row = next((r for r in out["rows"] if r["design"] == ORACLE), None)
-    if oracle_row and oracle_row["area"] and oracle_row["area"][2] >= 1.0:
-        out["oracle_gains"] = False
-        for row in out["rows"]:
-            row.pop("oracle_fraction", None)
-    elif oracle_row and oracle_row["area"]:
-        out["oracle_gains"] = True
+    if oracle_row and oracle_row["area"]:
+        out["oracle_gains"] = oracle_row["area"][2] < 1.0
+        if not out["oracle_gains"]:
+            for row in out["rows"]:
+                row.pop("oracle_fraction", None)
     return out
 
 

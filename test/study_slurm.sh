@@ -111,7 +111,7 @@ PY
   # for why they parted, kept in the test's log because the cells' directories go with the test.
   local take
   for take in "$@"; do
-    echo "$take: $(grep -rhoa "designed run 1 experiment 1:.*" "$take/launch.log" 2>/dev/null | head -1)" >&2
+    echo "$take: $(grep -hoa "designed run 1 experiment 1:.*" "$take/launch.log" 2>/dev/null | head -1)" >&2
   done
   return 1
 }

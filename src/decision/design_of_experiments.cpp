@@ -244,10 +244,10 @@ void DesignOfExperiments::onShutdown() {
 namespace {
 /// A record as the region designs see it: a successful experiment and its held-out error; none otherwise.
 std::optional<core::PastExperiment> pastExperiment(const ExperimentRecord& r) {
-  if (r.status != "done" || r.predicted_mean.size() != 3 || !std::isfinite(r.surprise) || r.surprise < 0) {
+  if (r.status != "done" || r.predicted_mean.size() != 3 || !std::isfinite(r.surprise) || r.surprise < 0 ||
+      !std::isfinite(r.dx) || !std::isfinite(r.dy)) {
     return std::nullopt;
   }
-  if (!std::isfinite(r.dx) || !std::isfinite(r.dy)) return std::nullopt;
   return core::PastExperiment{r.experiment.object, r.experiment.side, r.experiment.offset, r.experiment.distance,
                               r.surprise, r.dx, r.dy};
 }
