@@ -667,3 +667,44 @@ TEST(ReplicateScreening, NoiseAndKnownObjectsGetTheFloorTheLearnableShareTheRest
   EXPECT_TRUE(same(design.next(c), other.next(c)));
   EXPECT_EQ(makeDesign("replicate_screening", 1)->next(c).object, design.next(c).object);
 }
+
+TEST(ReplicateScreening, AnObjectNoPushMovedIsKnownWhateverTheModelsFirstErrors) {
+  ReplicateScreeningDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  // green: a push and its replicate that did not move it (0.4 mm), while the model still erred by 4 and 2 cm.
+  c.history.push_back({"green_cube", "-x", 0.0, 0.05, 0.04, 0.0004, 0.0});
+  c.history.push_back({"green_cube", "-x", 0.0, 0.05, 0.02, 0.0, 0.0});
+  // yellow: one push that did not move it is not yet enough (it may have missed a light object).
+  c.history.push_back({"yellow_cube", "+y", 0.0, 0.05, 0.03, 0.0, 0.0});
+  c.history_count = c.history.size();
+  auto p = design.probabilities(c);
+  EXPECT_NEAR(p.at("green_cube"), 0.2 / 4, 1e-12);
+  EXPECT_NEAR(p.at("yellow_cube"), 0.2 / 4 + 0.8 / 3, 1e-12);
+  // A later push (at the floor) that moves green makes it learnable again.
+  c.history.push_back({"green_cube", "+x", 0.01, 0.07, 0.03, 0.012, 0.002});
+  p = design.probabilities(c);
+  EXPECT_NEAR(p.at("green_cube"), 0.2 / 4 + 0.8 / 4, 1e-12);
+}
+
+TEST(ReplicateScreening, AnObjectIsAskedAgainForEveryTenOfItsPushes) {
+  ReplicateScreeningDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  for (std::size_t i = 1; i < c.objects.size(); ++i) c.objects[i].reachable = false;  // red is the only choice
+  // A push and its replicate, then seven pushes none of which repeats another: nine pushes, one pair.
+  c.history.push_back({"red_cube", "-x", 0.0, 0.05, 0.02, 0.040, 0.0});
+  c.history.push_back({"red_cube", "-x", 0.0, 0.05, 0.02, 0.041, 0.0});
+  for (int i = 0; i < 7; ++i) {
+    c.history.push_back({"red_cube", i % 2 ? "+y" : "+x", -0.01 + 0.005 * i, 0.03 + 0.01 * i, 0.02, 0.03, 0.0});
+  }
+  c.history_count = 20;
+  EXPECT_EQ(design.next(c).rationale.find("replicate)"), std::string::npos);
+  // The tenth push: red wants a second pair, so the next choice is that push again.
+  c.history.push_back({"red_cube", "-y", 0.004, 0.06, 0.02, 0.02, 0.01});
+  const ExperimentChoice again = design.next(c);
+  EXPECT_EQ(again.side, "-y");
+  EXPECT_DOUBLE_EQ(again.offset, 0.004);
+  EXPECT_DOUBLE_EQ(again.distance, 0.06);
+  EXPECT_NE(again.rationale.find("replicate"), std::string::npos) << again.rationale;
+  c.history.push_back({"red_cube", "-y", 0.004, 0.06, 0.02, 0.021, 0.01});
+  EXPECT_EQ(design.next(c).rationale.find("replicate)"), std::string::npos);
+}

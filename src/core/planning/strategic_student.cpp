@@ -141,6 +141,13 @@ bool learnable(const std::vector<PastExperiment>& pushes) {
   const ReplicateSpread replicates = replicateSpread(pushes);
   if (replicates.pairs > 0 && replicates.spread > kNoisySpread) return false;
   if (pushes.size() < 2) return true;
+  // An object none of whose pushes moved it is foretold by "it stays": known, whatever the model's first errors say
+  // (a model that has not yet learned it predicts it moving as others do, and took five more pushes to say so).
+  // A push that missed a light object is undone by its next push (at the floor) that moves it.
+  if (std::all_of(pushes.begin(), pushes.end(),
+                  [](const PastExperiment& p) { return std::hypot(p.moved_x, p.moved_y) < kErrorFloor; })) {
+    return false;
+  }
   const std::size_t recent = std::min(pushes.size(), kKnownErrors);
   double level = 0;
   for (std::size_t i = pushes.size() - recent; i < pushes.size(); ++i) level += pushes[i].error / recent;
@@ -221,7 +228,8 @@ ExperimentChoice ReplicateScreeningDesign::next(const DesignContext& context) {
   // Until the object has its replicated pairs, its last push again: how alike it answers is what is learnable of it.
   const auto pushes = pushesByObject(context.history);
   const auto found = pushes.find(object->name);
-  if (found != pushes.end() && replicateSpread(found->second).pairs < kReplicatePairs) {
+  if (found != pushes.end() &&
+      replicateSpread(found->second).pairs < kReplicatePairs + found->second.size() / kReverifyEvery) {
     const PastExperiment& last = found->second.back();
     ExperimentChoice again{last.object, last.side, last.offset, last.distance, ""};
     if (!context.feasible || context.feasible(again)) {

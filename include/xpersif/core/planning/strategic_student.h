@@ -27,12 +27,14 @@
  * Replicate screening ("replicate_screening"): what a model can learn of an object is bounded by how differently the
  * object answers the same push (the pure error of a replicated design point). So:
  *  - a warm-up of two round-robin rounds: a uniform push on each object, then the same push again (a replicate);
- *    an object chosen later with fewer than kReplicatePairs replicated pairs gets its last push again (one pair:
- *    each replicate teaches the model next to nothing, and two cost more than they told in design_replay);
+ *    an object chosen later with fewer than kReplicatePairs replicated pairs, plus one per kReverifyEvery of its
+ *    pushes, gets its last push again (one pair at first: each replicate teaches the model next to nothing, and two
+ *    cost more than they told in design_replay; more as the object takes more of the budget);
  *  - an object whose replicated pushes moved it differently (the median over its pairs of |outcome difference| /
- *    max(mean |outcome|, 5 mm) above kNoisySpread) is noise to the model and gets only the floor; so does one whose
- *    last errors average below the 1 mm floor (it is known); the others are what is left to learn, and share the
- *    rest equally (the study's measure weighs every object that moves equally);
+ *    max(mean |outcome|, 5 mm) above kNoisySpread) is noise to the model and gets only the floor; so does one that is
+ *    known: its last errors average below the 1 mm floor, or none of its two or more pushes moved it 1 mm; the
+ *    others are what is left to learn, and share the rest equally (the study's measure weighs every object that
+ *    moves equally);
  *  - probabilities as the strategic student's: random_share / K each, plus (1 - random_share) over the learnable.
  * Stateless between choices, as the strategic student.
  */
@@ -85,6 +87,9 @@ class StrategicStudentDesign : public ObjectLevelDesign {
 
 /// Replicated pairs per object the replicate screening wants before it trusts an object's spread.
 constexpr std::size_t kReplicatePairs = 1;
+/// And one more for every this many pushes on the object: one pair is a single draw of an object's noise (a long push
+/// carries a redrawn cube with the robot whatever its friction), so what gets the budget is checked again as it does.
+constexpr std::size_t kReverifyEvery = 10;
 /// Above this relative spread of replicated outcomes, an object is noise to the model (measured on 2026-11-28's
 /// studies: deterministic objects 0.03-0.06 median, 0.15 at the 90th percentile; friction redrawn per push 0.37-0.94).
 constexpr double kNoisySpread = 0.25;
