@@ -73,8 +73,23 @@ std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t ste
     restore.request.state = stored.response.state;
   }
   const std::string why = callPatiently(nodeHandle(), "xpersim/restore", restore);
-  if (why.empty()) world_lineage_ = restore.response.lineage;
-  return why;
+  if (!why.empty()) return why;
+  world_lineage_ = restore.response.lineage;
+  awaitClock(restore.response.clock);
+  return "";
+}
+
+void LoopModel::awaitClock(double restored_clock) {
+  // Frames stamped after restored_clock show the restored world. Until this process's clock has reached it, a
+  // scene "newer than now" may still be a frame of the world before (a restarted simulator shows its world file).
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::ok() && ros::Time::now().toSec() < restored_clock && ros::WallTime::now() < until) {
+    ros::WallDuration(0.005).sleep();
+  }
+  if (ros::Time::now().toSec() < restored_clock) {
+    ROS_WARN("%s: the clock did not reach the restored world's %.3f s within 10 s (it shows %.3f s)", name().c_str(),
+             restored_clock, ros::Time::now().toSec());
+  }
 }
 
 bool LoopModel::lostDuring(std::uint64_t losses_before, const ExperimentRecord& record) {

@@ -252,6 +252,11 @@ LoopModel::Ending LoopModel::sceneForStep(RunState& run, std::uint64_t step, Fea
 }
 
 LoopModel::Ending LoopModel::chooseExperiment(RunState& run, const FeatureVector& scene, NextExperiment& next) {
+  if (run.again) {
+    next = std::move(*run.again);
+    run.again.reset();
+    return std::nullopt;
+  }
   next.design = run.goal.design;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -259,7 +264,6 @@ LoopModel::Ending LoopModel::chooseExperiment(RunState& run, const FeatureVector
       next.experiment = next_experiments_.front();
       next_experiments_.pop_front();
       next.design = "hand";
-      next.hand_chosen = true;
       return std::nullopt;
     }
   }
@@ -283,17 +287,13 @@ LoopModel::Ending LoopModel::chooseExperiment(RunState& run, const FeatureVector
 LoopModel::Ending LoopModel::redoExperiment(RunState& run, const NextExperiment& next, const ExperimentRecord& record,
                                             bool replaced) {
   // What the experiment did is not what an uninterrupted run would have done. It is not stored; once every
-  // component is back, the world goes back to the step's state and the same experiment (the same design stream)
-  // is done again.
+  // component is back, the world goes back to the step's state and the same experiment is done again.
   ROS_WARN("%s: a component was lost during experiment %u (%s%s); doing it again from the world as it was",
            name().c_str(), run.done + 1, record.status == "done" ? "it finished" : record.reason.c_str(),
            replaced ? "; the simulator's world is another one now" : "");
   const std::string why = returnTo(run.context, run.result.run_id, run.step_state);
   if (!why.empty()) return ended(run, "cannot do experiment " + std::to_string(run.done + 1) + " again: " + why);
-  if (next.hand_chosen) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    next_experiments_.push_front(next.experiment);
-  }
+  run.again = next;
   return std::nullopt;
 }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "xpersif/DesignGoal.h"
@@ -15,6 +16,12 @@
 #include "xpersif/loop/loop_model.h"
 
 namespace xpersif {
+
+/// The experiment a step does: hand-chosen (queued by set_next_experiment or the goal's plan) or designed.
+struct LoopModel::NextExperiment {
+  Experiment experiment;
+  std::string design;  ///< the goal's design, or "hand"
+};
 
 struct LoopModel::RunState {
   RunState(Run::Context& context, RunLoopResult& result) : goal(context.goal()), context(context), result(result) {}
@@ -30,13 +37,10 @@ struct LoopModel::RunState {
   core::FailureStreak streak;  ///< consecutive experiments failing for one cause (~max_same_failures)
   std::string step_state;      ///< the world state at the start of the current step
   std::string next_state;      ///< the world at the end of the last step, stored already as the next one's start
-};
-
-/// The experiment a step does: hand-chosen (queued by set_next_experiment or the goal's plan) or designed.
-struct LoopModel::NextExperiment {
-  Experiment experiment;
-  std::string design;        ///< the goal's design, or "hand"
-  bool hand_chosen = false;  ///< put back at the queue's front when the step is done again
+  /// The experiment of a step being done again (a component was lost during it): the one chosen before, not a
+  /// new design, which could differ (a design reads the scene, and a restarted simulator's first frames show
+  /// its world file until the step's state is back).
+  std::optional<NextExperiment> again;
 };
 
 /// One goal of the goal-directed phase, from GOALDESIGN's choice to the goal stored.

@@ -304,6 +304,7 @@ void XPerSim::checkpoint(const WorldState::Request&, WorldState::Response& respo
   requireStandingWorldLocked();
   response.state = world_->checkpoint();
   response.physics_time = world_->time();
+  response.clock = simTimeLocked();
   response.lineage = lineage_;
   restoredLocked("checkpoint");
   response.message = "checkpoint at t=" + core::describeNumber(world_->time()) + " s of physics";
@@ -317,6 +318,7 @@ void XPerSim::restore(const WorldState::Request& request, WorldState::Response& 
   // Simulated time never runs backwards in one simulator: the clock stays, the idle time makes up the difference.
   idle_time_ = std::max(0.0, clock - world_->time());
   response.physics_time = world_->time();
+  response.clock = simTimeLocked();
   response.lineage = lineage_;
   restoredLocked("restore");
   response.message = "restored the world at t=" + core::describeNumber(world_->time()) + " s of physics";

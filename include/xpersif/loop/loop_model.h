@@ -220,6 +220,9 @@ class LoopModel : public Supervisor {
   /// Put the world back in @p state, or in the state stored for @p step of @p run_id when @p state is empty;
   /// "" or why not.
   std::string restoreCheckpoint(std::uint64_t run_id, std::uint32_t step, const std::string& state = "");
+  /// Waits (up to 10 s of wall time) until this process's clock shows @p restored_clock, the simulated time a
+  /// restored world goes on from, so that the next scene read is one of that world.
+  void awaitClock(double restored_clock);
   /// Whether a component was lost during the experiment that gave @p record (a failed one first waits one
   /// heartbeat timeout: its failure may be the first sign of the loss).
   bool lostDuring(std::uint64_t losses_before, const ExperimentRecord& record);
