@@ -137,7 +137,8 @@ void DesignOfExperiments::onConfigure() {
   ros::NodeHandle& pnh = privateNodeHandle();
   const ParameterReader parameters(pnh, DesignOfExperiments::parameters());
   // The objects and the push limits come from XPERSim's scene (~objects may leave some out).
-  const core::SetupCatalogue catalogue = loadSetupCatalogue(nodeHandle(), pnh);
+  const core::SetupCatalogue scene = loadSceneCatalogue(nodeHandle(), pnh);
+  const core::SetupCatalogue catalogue = restrictedToObjectsParameter(scene, pnh);
   core::DesignOptions options;
   const std::string design = parameters.get<std::string>("design");
   const int seed = parameters.get<int>("seed");
@@ -184,6 +185,8 @@ void DesignOfExperiments::onConfigure() {
     regions_ = std::move(map);
     objects_ = catalogue.names();
     footprints_ = regions.footprints;
+    obstacle_footprints_.clear();
+    for (const auto& object : scene.objects) obstacle_footprints_[object.name] = object.footprint;
     arena_.size_x = catalogue.arena_size_x;
     arena_.size_y = catalogue.arena_size_y;
     robot_radius_ = catalogue.robot_radius;
@@ -364,11 +367,11 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   context.history_count = request.seeded ? request.experiment : designed_;
   if (request.seeded) context.stream = request.stream;
   // Only pushes MANIPULATION's planner would accept from where the request's scene has the objects (as GOALDESIGN
-  // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; objects beyond ~objects are not
-  // known here, so a push into one of them is left for MANIPULATION to refuse.
+  // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; every object of the scene, in
+  // ~objects or not, is in the way (MANIPULATION refuses a push into any of them).
   if (feasible_only_ && !request.scene_objects.empty()) {
-    context.feasible = [this, others = sceneObstacles(request.scene_objects, request.scene_poses, footprints_)](
-                           const core::ExperimentChoice& c) {
+    auto others = sceneObstacles(request.scene_objects, request.scene_poses, obstacle_footprints_);
+    context.feasible = [this, others = std::move(others)](const core::ExperimentChoice& c) {
       const auto seen = std::find_if(others.begin(), others.end(), [&](const auto& o) { return o.name == c.object; });
       if (seen == others.end()) return false;
       core::PushOptions push;

@@ -10,13 +10,11 @@
 
 namespace xpersif {
 
-namespace {
-core::SetupCatalogue restricted(core::SetupCatalogue catalogue, const ros::NodeHandle& private_nh) {
+core::SetupCatalogue restrictedToObjectsParameter(core::SetupCatalogue catalogue, const ros::NodeHandle& private_nh) {
   std::vector<std::string> objects;
   if (private_nh.getParam("objects", objects)) catalogue = catalogue.restrictedTo(objects, "~objects");
   return catalogue;
 }
-}  // namespace
 
 const core::ParameterTable& setupCatalogueParameters() {
   static const core::ParameterTable table(
@@ -35,13 +33,16 @@ const core::ParameterTable& setupCatalogueParameters() {
 }
 
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
+  return restrictedToObjectsParameter(loadSceneCatalogue(nh, private_nh), private_nh);
+}
+
+core::SetupCatalogue loadSceneCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
   const core::ParameterTable& declared = setupCatalogueParameters();
   std::string service = std::get<std::string>(declared.at("scene_service").default_value), key, world_file;
   // No simulator (a bag being replayed): the scene XPERSim would build from the same world file.
   if (private_nh.getParam("world", world_file)) {
     try {
-      return restricted(core::SetupCatalogue::fromScene(core::PhysicsWorld(core::loadWorldFile(world_file)).scene()),
-                        private_nh);
+      return core::SetupCatalogue::fromScene(core::PhysicsWorld(core::loadWorldFile(world_file)).scene());
     } catch (const core::WorldError& e) {
       throw std::runtime_error(std::string("~world: ") + e.what());
     }
@@ -52,7 +53,7 @@ core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::No
   core::throwIfInvalid(core::checkParameter(declared.at("scene_timeout"), timeout));
   service = nh.resolveName(service);
   const xpersif::Scene scene = fetchScene(service, timeout, "; the objects and the arena are read from it");
-  return restricted(core::SetupCatalogue::fromScene(fromSceneMsg(scene)), private_nh);
+  return core::SetupCatalogue::fromScene(fromSceneMsg(scene));
 }
 
 }  // namespace xpersif

@@ -266,6 +266,49 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
   for (int i = 0; i < 40; ++i) refused += accepted(designRed().response.experiment).ok ? 0 : 1;
   EXPECT_GT(refused, 10);
   ros::param::set(ns + "design_of_experiments/feasible_only", true);
+  // An object beyond ~objects is in the way too (the oracle arm of a study designs for the learnable objects
+  // only, and MANIPULATION refused its pushes into the others): one is placed in the line of red_cube's pushes
+  // on its +y face, with room for the robot between them.
+  auto blocker = std::find_if(scene.objects.begin(), scene.objects.end(), [](const auto& o) { return o.name != "red_cube"; });
+  ASSERT_NE(blocker, scene.objects.end());
+  red = std::find_if(scene.objects.begin(), scene.objects.end(), [](const auto& o) { return o.name == "red_cube"; });
+  double bx = 0, by = 0;
+  xpersif::core::worldHalfExtents(footprints.at(blocker->name), 0.0, bx, by);
+  blocker->position.x = setup.arena_size_x / 2 - bx - 0.01;
+  blocker->position.y = red->position.y - ey - 2.5 * setup.robot_radius - 0.02 - by;
+  blocker->yaw = 0.0;
+  obstacles.clear();
+  for (const auto& o : scene.objects) {
+    if (footprints.count(o.name)) obstacles.push_back({o.name, o.position.x, o.position.y, o.yaw, footprints.at(o.name)});
+  }
+  // The placement matters: among red_cube's pushes, some the planner accepts without the blocker it refuses with it.
+  std::vector<xpersif::core::Obstacle> without_blocker;
+  for (const auto& o : obstacles) {
+    if (o.name != blocker->name) without_blocker.push_back(o);
+  }
+  int blocked = 0;
+  for (int step = 0; step <= 4; ++step) {
+    const double distance =
+        setup.minPushDistance() + step * (setup.maxPushDistance() - setup.minPushDistance()) / 4;
+    for (const std::string& side : kSides) {
+      xpersif::core::PushOptions options;
+      options.max_distance = distance;
+      const xpersif::core::PushRequest push{"red_cube", side, 0.0, distance};
+      const auto& pushed = *std::find_if(obstacles.begin(), obstacles.end(), [](const auto& o) { return o.name == "red_cube"; });
+      const bool free = xpersif::core::planPush(pushed, push, setup.robot_radius, arena, without_blocker, options).ok;
+      const bool with = xpersif::core::planPush(pushed, push, setup.robot_radius, arena, obstacles, options).ok;
+      blocked += free && !with ? 1 : 0;
+    }
+  }
+  ASSERT_GT(blocked, 0) << blocker->name << " at y " << blocker->position.y << " blocks none of red_cube's pushes";
+  ros::param::set(ns + "design_of_experiments/objects", std::vector<std::string>{"red_cube"});
+  reconfigure("random");
+  for (int i = 0; i < 30; ++i) {
+    const auto call = designRed();
+    const auto plan = accepted(call.response.experiment);
+    EXPECT_TRUE(plan.ok) << "~objects [red_cube]: " << call.response.message << " would be refused: " << plan.reason;
+  }
+  ros::param::del(ns + "design_of_experiments/objects");
   reconfigure("curiosity");
   // A scene that is not numbers, or names without poses, is refused, naming the field; nothing is designed.
   xpersif::DesignExperiment bad;

@@ -24,6 +24,11 @@ namespace xpersif {
  * @throws std::runtime_error (or core::ValidationError) with a sentence when the scene cannot be had or used
  */
 core::SetupCatalogue loadSetupCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+/// As loadSetupCatalogue, every object of the scene (`~objects` not applied): what a component that considers
+/// some objects must still steer clear of.
+core::SetupCatalogue loadSceneCatalogue(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+/// @p catalogue restricted to the private parameter `~objects`, when it is set.
+core::SetupCatalogue restrictedToObjectsParameter(core::SetupCatalogue catalogue, const ros::NodeHandle& private_nh);
 /// The private parameters loadSetupCatalogue reads (~objects, ~world, ~scene_service, ~scene_timeout).
 const core::ParameterTable& setupCatalogueParameters();
 
