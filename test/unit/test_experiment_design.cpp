@@ -686,19 +686,21 @@ TEST(ReplicateScreening, AnObjectNoPushMovedIsKnownWhateverTheModelsFirstErrors)
   EXPECT_NEAR(p.at("green_cube"), 0.2 / 4 + 0.8 / 4, 1e-12);
 }
 
-TEST(ReplicateScreening, AnObjectIsAskedAgainForEveryTenOfItsPushes) {
+TEST(ReplicateScreening, AnObjectIsAskedAgainForEveryTenOfItsPushesBeyondItsShare) {
   ReplicateScreeningDesign design(7, DesignOptions{});
   DesignContext c = cubes();
+  ASSERT_EQ(c.objects.size(), 4u);
   for (std::size_t i = 1; i < c.objects.size(); ++i) c.objects[i].reachable = false;  // red is the only choice
-  // A push and its replicate, then seven pushes none of which repeats another: nine pushes, one pair.
+  // A push and its replicate, then eleven pushes none of which repeats another: thirteen pushes, all of them red's,
+  // 9.75 beyond its even share of a quarter, one pair.
   c.history.push_back({"red_cube", "-x", 0.0, 0.05, 0.02, 0.040, 0.0});
   c.history.push_back({"red_cube", "-x", 0.0, 0.05, 0.02, 0.041, 0.0});
-  for (int i = 0; i < 7; ++i) {
-    c.history.push_back({"red_cube", i % 2 ? "+y" : "+x", -0.01 + 0.005 * i, 0.03 + 0.01 * i, 0.02, 0.03, 0.0});
+  for (int i = 0; i < 11; ++i) {
+    c.history.push_back({"red_cube", i % 2 ? "+y" : "+x", -0.02 + 0.004 * i, 0.03 + 0.005 * i, 0.02, 0.03, 0.0});
   }
   c.history_count = 20;
   EXPECT_EQ(design.next(c).rationale.find("replicate)"), std::string::npos);
-  // The tenth push: red wants a second pair, so the next choice is that push again.
+  // The fourteenth push, 10.5 beyond its share: red wants a second pair, so the next choice is that push again.
   c.history.push_back({"red_cube", "-y", 0.004, 0.06, 0.02, 0.02, 0.01});
   const ExperimentChoice again = design.next(c);
   EXPECT_EQ(again.side, "-y");
@@ -707,4 +709,30 @@ TEST(ReplicateScreening, AnObjectIsAskedAgainForEveryTenOfItsPushes) {
   EXPECT_NE(again.rationale.find("replicate"), std::string::npos) << again.rationale;
   c.history.push_back({"red_cube", "-y", 0.004, 0.06, 0.02, 0.021, 0.01});
   EXPECT_EQ(design.next(c).rationale.find("replicate)"), std::string::npos);
+}
+
+TEST(ReplicateScreening, ObjectsAtTheirEvenShareAreNotAskedAgain) {
+  // Where the budget is shared evenly (every object learnable), one pair each is enough however long the run.
+  EXPECT_EQ(replicatePairsWanted(25, 100, 4), kReplicatePairs);
+  EXPECT_EQ(replicatePairsWanted(300, 1200, 4), kReplicatePairs);
+  EXPECT_EQ(replicatePairsWanted(34, 100, 4), kReplicatePairs);      // 9 beyond
+  EXPECT_EQ(replicatePairsWanted(35, 100, 4), kReplicatePairs + 1);  // 10 beyond
+  EXPECT_EQ(replicatePairsWanted(80, 100, 4), kReplicatePairs + 5);  // 55 beyond
+  EXPECT_EQ(replicatePairsWanted(0, 0, 4), kReplicatePairs);
+  ReplicateScreeningDesign design(7, DesignOptions{});
+  DesignContext c = cubes();
+  // Every object twenty pushes, the first two of each a replicated pair: no choice is a replicate.
+  for (const auto& object : c.objects) {
+    c.history.push_back({object.name, "-x", 0.0, 0.05, 0.02, 0.040, 0.0});
+    c.history.push_back({object.name, "-x", 0.0, 0.05, 0.02, 0.041, 0.0});
+    for (int i = 0; i < 18; ++i) {
+      c.history.push_back({object.name, i % 2 ? "+y" : "+x", -0.02 + 0.002 * i, 0.03 + 0.003 * i, 0.02, 0.03, 0.0});
+    }
+  }
+  c.history_count = c.history.size();
+  for (std::uint64_t stream = 1; stream <= 20; ++stream) {
+    c.stream = stream;
+    const ExperimentChoice choice = design.next(c);
+    EXPECT_EQ(choice.rationale.find("replicate)"), std::string::npos) << choice.rationale;
+  }
 }

@@ -156,6 +156,12 @@ bool learnable(const std::vector<PastExperiment>& pushes) {
 
 }  // namespace
 
+std::size_t replicatePairsWanted(std::size_t object_pushes, std::size_t all_pushes, std::size_t objects) {
+  // Beyond its even share: object_pushes - all_pushes / objects, in whole numbers.
+  const std::size_t scaled = object_pushes * objects, even = all_pushes;
+  return kReplicatePairs + (scaled > even ? (scaled - even) / (objects * kReverifyEvery) : 0);
+}
+
 ReplicateSpread replicateSpread(const std::vector<PastExperiment>& pushes) {
   // By side and offset, so that each push is compared only with the few within kReplicateOffset of it: a run of
   // thousands of pushes per object stays cheap at every choice (all pairs would be quadratic).
@@ -229,7 +235,8 @@ ExperimentChoice ReplicateScreeningDesign::next(const DesignContext& context) {
   const auto pushes = pushesByObject(context.history);
   const auto found = pushes.find(object->name);
   if (found != pushes.end() &&
-      replicateSpread(found->second).pairs < kReplicatePairs + found->second.size() / kReverifyEvery) {
+      replicateSpread(found->second).pairs < replicatePairsWanted(found->second.size(), context.history.size(),
+                                                                   context.objects.size())) {
     const PastExperiment& last = found->second.back();
     ExperimentChoice again{last.object, last.side, last.offset, last.distance, ""};
     if (!context.feasible || context.feasible(again)) {

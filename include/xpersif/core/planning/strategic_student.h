@@ -28,8 +28,9 @@
  * object answers the same push (the pure error of a replicated design point). So:
  *  - a warm-up of two round-robin rounds: a uniform push on each object, then the same push again (a replicate);
  *    an object chosen later with fewer than kReplicatePairs replicated pairs, plus one per kReverifyEvery of its
- *    pushes, gets its last push again (one pair at first: each replicate teaches the model next to nothing, and two
- *    cost more than they told in design_replay; more as the object takes more of the budget);
+ *    pushes beyond its even share, gets its last push again (one pair at first: each replicate teaches the model
+ *    next to nothing, and two cost more than they told in design_replay; more as the object takes more than its
+ *    share of the budget);
  *  - an object whose replicated pushes moved it differently (the median over its pairs of |outcome difference| /
  *    max(mean |outcome|, 5 mm) above kNoisySpread) is noise to the model and gets only the floor; so does one that is
  *    known: its last errors average below the 1 mm floor, or none of its two or more pushes moved it 1 mm; the
@@ -87,9 +88,14 @@ class StrategicStudentDesign : public ObjectLevelDesign {
 
 /// Replicated pairs per object the replicate screening wants before it trusts an object's spread.
 constexpr std::size_t kReplicatePairs = 1;
-/// And one more for every this many pushes on the object: one pair is a single draw of an object's noise (a long push
-/// carries a redrawn cube with the robot whatever its friction), so what gets the budget is checked again as it does.
+/// And one more for every this many pushes the object has beyond its even share: one pair is a single draw of an
+/// object's noise (a long push carries a redrawn cube with the robot whatever its friction), so what takes the budget
+/// is checked again as it does. Not per push: where every object is learnable, shares stay even and replicates,
+/// which teach the model next to nothing, cost the budget (the all-learnable control lost 5 % with them per push).
 constexpr std::size_t kReverifyEvery = 10;
+/// The replicated pairs wanted of an object with @p object_pushes of @p all_pushes, shared by @p objects objects:
+/// kReplicatePairs, plus one per kReverifyEvery of its pushes beyond all_pushes / objects.
+std::size_t replicatePairsWanted(std::size_t object_pushes, std::size_t all_pushes, std::size_t objects);
 /// Above this relative spread of replicated outcomes, an object is noise to the model (measured on 2026-11-28's
 /// studies: deterministic objects 0.03-0.06 median, 0.15 at the 90th percentile; friction redrawn per push 0.37-0.94).
 constexpr double kNoisySpread = 0.25;
