@@ -184,9 +184,8 @@ void DesignOfExperiments::onConfigure() {
     options_ = options;
     regions_ = std::move(map);
     objects_ = catalogue.names();
-    footprints_ = regions.footprints;
-    obstacle_footprints_.clear();
-    for (const auto& object : scene.objects) obstacle_footprints_[object.name] = object.footprint;
+    footprints_.clear();
+    for (const auto& object : scene.objects) footprints_[object.name] = object.footprint;
     arena_.size_x = catalogue.arena_size_x;
     arena_.size_y = catalogue.arena_size_y;
     robot_radius_ = catalogue.robot_radius;
@@ -370,7 +369,7 @@ void DesignOfExperiments::design(const DesignExperiment::Request& request, Desig
   // chooses its pushes). An object of ~objects the scene lacks cannot be pushed; every object of the scene, in
   // ~objects or not, is in the way (MANIPULATION refuses a push into any of them).
   if (feasible_only_ && !request.scene_objects.empty()) {
-    auto others = sceneObstacles(request.scene_objects, request.scene_poses, obstacle_footprints_);
+    auto others = sceneObstacles(request.scene_objects, request.scene_poses, footprints_);
     context.feasible = [this, others = std::move(others)](const core::ExperimentChoice& c) {
       const auto seen = std::find_if(others.begin(), others.end(), [&](const auto& o) { return o.name == c.object; });
       if (seen == others.end()) return false;

@@ -225,10 +225,14 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
     if (o.name != "red_cube") o.position.x = std::min(o.position.x, 0.0);
   }
   // The oracle: MANIPULATION's planner (core::planPush) on that scene.
-  std::vector<xpersif::core::Obstacle> obstacles;
-  for (const auto& o : scene.objects) {
-    if (footprints.count(o.name)) obstacles.push_back({o.name, o.position.x, o.position.y, o.yaw, footprints.at(o.name)});
-  }
+  auto obstaclesOf = [&](const xpersif::FeatureVector& seen) {
+    std::vector<xpersif::core::Obstacle> result;
+    for (const auto& o : seen.objects) {
+      if (footprints.count(o.name)) result.push_back({o.name, o.position.x, o.position.y, o.yaw, footprints.at(o.name)});
+    }
+    return result;
+  };
+  std::vector<xpersif::core::Obstacle> obstacles = obstaclesOf(scene);
   xpersif::core::ArenaGeometry arena;
   arena.size_x = setup.arena_size_x;
   arena.size_y = setup.arena_size_y;
@@ -277,15 +281,13 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
   blocker->position.x = setup.arena_size_x / 2 - bx - 0.01;
   blocker->position.y = red->position.y - ey - 2.5 * setup.robot_radius - 0.02 - by;
   blocker->yaw = 0.0;
-  obstacles.clear();
-  for (const auto& o : scene.objects) {
-    if (footprints.count(o.name)) obstacles.push_back({o.name, o.position.x, o.position.y, o.yaw, footprints.at(o.name)});
-  }
+  obstacles = obstaclesOf(scene);
   // The placement matters: among red_cube's pushes, some the planner accepts without the blocker it refuses with it.
   std::vector<xpersif::core::Obstacle> without_blocker;
   for (const auto& o : obstacles) {
     if (o.name != blocker->name) without_blocker.push_back(o);
   }
+  const auto& pushed = *std::find_if(obstacles.begin(), obstacles.end(), [](const auto& o) { return o.name == "red_cube"; });
   int blocked = 0;
   for (int step = 0; step <= 4; ++step) {
     const double distance =
@@ -294,7 +296,6 @@ TEST_F(Decision, DesignsChooseOnlyPushesThePlannerAcceptsFromTheRequestsScene) {
       xpersif::core::PushOptions options;
       options.max_distance = distance;
       const xpersif::core::PushRequest push{"red_cube", side, 0.0, distance};
-      const auto& pushed = *std::find_if(obstacles.begin(), obstacles.end(), [](const auto& o) { return o.name == "red_cube"; });
       const bool free = xpersif::core::planPush(pushed, push, setup.robot_radius, arena, without_blocker, options).ok;
       const bool with = xpersif::core::planPush(pushed, push, setup.robot_radius, arena, obstacles, options).ok;
       blocked += free && !with ? 1 : 0;

@@ -89,9 +89,8 @@ class DesignOfExperiments : public Component {
   core::DesignOptions options_;
   std::shared_ptr<core::ExperimentDesign> design_;
   std::unique_ptr<core::CuriosityMap> regions_;  // only for regionOf: the same keys as MOTIVATION's
-  std::vector<std::string> objects_;
-  std::map<std::string, core::Footprint> footprints_;           // of ~objects, the ones designed for
-  std::map<std::string, core::Footprint> obstacle_footprints_;  // of every object in the scene, all in the way
+  std::vector<std::string> objects_;  // ~objects: the ones designed for
+  std::map<std::string, core::Footprint> footprints_;  // of every object in the scene, all in the way
   core::ArenaGeometry arena_;        // the scene's, for the feasibility of pushes
   double robot_radius_ = 0.0;  // m
   bool feasible_only_ = true;  // ~feasible_only
