@@ -57,11 +57,18 @@ if [[ -n "$run_dir" ]]; then
     { echo "run.sh: the run directory $run_dir cannot be created or written" >&2; exit 4; }
   run_dir=$(cd "$run_dir" && pwd)
 fi
-# Built already? Then a bad file (or --set) is refused at once, before the build and the master.
+# Built already? Then a bad file (or --set) is refused at once, before the build and the master. The check runs in
+# the run's environment (the devel space's setup): a world may name its robot package://xpersif/..., as generated
+# worlds do, and that resolves through ROS_PACKAGE_PATH.
 checker="$repo/build/devel/lib/xpersif/xpersif_experiment"
-if [[ -x "$checker" ]]; then
-  "$checker" check "$experiment" --components "$repo/config/loop.yaml,$repo/config/embodiment.yaml" \
-    "${overrides[@]}" >/dev/null || exit 2
+if [[ -x "$checker" && -f "$repo/build/devel/setup.bash" ]]; then
+  (
+    set +u
+    # shellcheck disable=SC1091
+    source "$repo/build/devel/setup.bash"
+    "$checker" check "$experiment" --components "$repo/config/loop.yaml,$repo/config/embodiment.yaml" \
+      "${overrides[@]}" >/dev/null
+  ) || exit 2
 fi
 
 bash "$repo/scripts/setup.sh"

@@ -86,6 +86,10 @@ sed -e "s#urdf: \.\./urdf/#urdf: $HERE/urdf/#" -e 's/fx: 650.0, fy: 650.0/fx: 40
   "$HERE/worlds/ordinary.yaml" >"$T/coarse_camera.yaml"
 grep -q "fx: 400.0" "$T/coarse_camera.yaml" || { echo "FAIL: could not write the coarse-camera world" >&2; exit 1; }
 sed "s#^world: .*#world: $T/floor_coloured.yaml#" "$HERE/experiments/short.yaml" >"$T/floor_coloured_experiment.yaml"
+# The same world with its robot named as generated worlds name it (package://xpersif/...): run.sh's early check
+# must resolve it as the run will, whatever the caller's ROS_PACKAGE_PATH.
+sed "s#urdf: $HERE/urdf/#urdf: package://xpersif/urdf/#" "$T/floor_coloured.yaml" >"$T/floor_coloured_by_package.yaml"
+grep -q "urdf: package://xpersif/urdf/" "$T/floor_coloured_by_package.yaml" || { echo "FAIL: could not write the world naming its robot by package" >&2; exit 1; }
 
 as_nobody=()
 [[ $(id -u) -ne 0 ]] || as_nobody=(setpriv --reuid=65534 --regid=65534 --clear-groups)
@@ -224,6 +228,7 @@ case_ "a missing experiment file" 2 "no such experiment file" -- bash "$P" "$T/m
 case_ "an experiment file of random bytes" 2 "random.yaml" -- bash "$P" "$T/random.yaml"
 case_ "a directory as experiment file" 2 "not a readable experiment file" -- bash "$P" "$T/nobags"
 case_ "a world the cameras cannot perceive" 2 "it looks like the floor" -- bash "$P" "$HERE/experiments/short.yaml" --set world=$T/floor_coloured.yaml
+case_ "the same, its robot named by package://, the caller's ROS_PACKAGE_PATH unset" 2 "it looks like the floor" -- env -u ROS_PACKAGE_PATH bash "$P" "$HERE/experiments/short.yaml" --set world=$T/floor_coloured_by_package.yaml
 case_ "--run-dir under a file" 4 "cannot be created or written" -- bash "$P" --run-dir "$T/file.txt/run"
 
 cat "$OUT"

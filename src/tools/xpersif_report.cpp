@@ -391,9 +391,12 @@ void describeReach(const std::vector<LearningCurve>& curves, std::ostream& md) {
   for (const auto& c : curves) {
     if (c.name == "random") continue;
     const int k = experimentsToReach(c, target);
-    md << "- " << c.name << " reaches it after " << (k < 0 ? std::string("(never)") : std::to_string(k))
-       << " experiments";
-    if (k >= 0 && random->experiments.back() > 0) {
+    if (k < 0) {
+      md << "- " << c.name << " never reaches it\n";
+      continue;
+    }
+    md << "- " << c.name << " reaches it after " << k << " experiments";
+    if (random->experiments.back() > 0) {
       md << " (" << std::setprecision(0) << 100.0 * k / random->experiments.back() << " % of random's)";
     }
     md << "\n";
