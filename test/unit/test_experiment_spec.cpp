@@ -160,6 +160,10 @@ TEST_F(ExperimentFileTest, MissingFilesAreNamed) {
   EXPECT_NE(what.find("world names " + (dir_ / "no/such/world.yaml").string() + ", which does not exist"),
             std::string::npos)
       << what;
+  // A relative path is resolved against the experiment file, not the shell's directory: the sentence says so.
+  EXPECT_NE(what.find("a relative path is taken from the experiment file's directory"), std::string::npos) << what;
+  what = errorOf("world: /no/such/world.yaml\nphases: [{kind: evaluation, name: e, experiments: 2}]\n");
+  EXPECT_EQ(what.find("relative path"), std::string::npos) << what;
   what = errorOf(valid("robot: missing.urdf\n"));
   EXPECT_NE(what.find("robot names"), std::string::npos) << what;
   what = errorOf("phases: [{kind: evaluation, name: e, experiments: 2}]\n");

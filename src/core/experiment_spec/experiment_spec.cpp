@@ -125,7 +125,11 @@ class Reader {
     const std::string resolved = path(node, key);
     std::error_code error;
     if (!fs::is_regular_file(resolved, error)) {
-      fail(key, "names " + resolved + ", which does not exist or is not a file", node);
+      const bool relative = !fs::path(text(node, key)).is_absolute();
+      fail(key,
+           "names " + resolved + ", which does not exist or is not a file" +
+               (relative ? std::string(" (a relative path is taken from the experiment file's directory)") : ""),
+           node);
     }
     return resolved;
   }
