@@ -95,12 +95,33 @@ stored=$(sql "$A/knowledge.db" "SELECT DISTINCT json_extract(parameters, '$.prov
 [ "$stored" = "$A/world.yaml $A" ] || fail "the runs' provenance names '$stored'"
 grep -q "^code_version: \"$version\"" "$A/provenance.yaml" || fail "provenance.yaml lacks the code version"
 # The report's measures (doc/studies.md): with an object that moved, the primary measure and competence, a row per design.
-if ! grep -q "^No object of the evaluation set moved" "$A/report.md"; then
+if ! grep -q "^No learnable object of the evaluation set moves" "$A/report.md"; then
   for section in "## Which design did better" "## Competence: one-push goals"; do
     sed -n "/^$section/,/^## [^CW]/p" "$A/report.md" | grep -q "^| curiosity | " || fail "report.md: no '$section' row for curiosity"
   done
 fi
 ok "short experiment: exit 0, report, runs $runs, $experiments experiments, code version $version"
+# The same knowledge base reported against its world with every object redrawn before every push: nothing is
+# learnable, and the report says so object by object, not "nothing moved", and gives no "reaches it" figure.
+/usr/bin/python3 - "$A/world.yaml" "$T/all_redrawn.yaml" <<'PY' || fail "could not write the all-redrawn world"
+import os, sys, yaml
+world = yaml.safe_load(open(sys.argv[1]))
+for o in world["objects"]:
+    o["friction_redraw"] = [0.1, 2.5]
+    if isinstance(o.get("friction"), list):  # a redrawn friction is one number
+        o["friction"] = o["friction"][0]
+urdf = world["robot"]["urdf"]
+if not urdf.startswith(("/", "package://")):
+    world["robot"]["urdf"] = os.path.join(os.path.dirname(sys.argv[1]), urdf)
+yaml.safe_dump(world, open(sys.argv[2], "w"))
+PY
+mkdir -p "$T/redrawn_report"
+xpersif_report --database "$A/knowledge.db" --out "$T/redrawn_report" --world "$T/all_redrawn.yaml" >/dev/null 2>&1 ||
+  fail "xpersif_report on the all-redrawn world failed"
+grep -q "^No learnable object of the evaluation set moves when pushed.*; the world redraws .* before every push" \
+  "$T/redrawn_report/report.md" || fail "the report does not name the redrawn objects as its cause: $(sed -n '/^## Which/,+3p' "$T/redrawn_report/report.md")"
+! grep -q "reaches it" "$T/redrawn_report/report.md" || fail "the report gives a 'reaches it' figure with nothing learnable"
+ok "reported against an all-redrawn world: $(grep '^No learnable object' "$T/redrawn_report/report.md" | cut -c1-140)"
 
 # ---- 2b. a failure after roslaunch read the file is in the status file (roslaunch itself exits 0) ----
 new_master

@@ -292,10 +292,6 @@ std::string joined(const std::vector<std::string>& names) {
 /// The primary measure of doc/studies.md on this run's designs, and what one seed per design can and cannot say.
 void describeDesigns(const Curves& curves, std::ostream& md) {
   md << "\n## Which design did better\n\n";
-  if (curves.moving.empty()) {
-    md << "No object of the evaluation set moved when pushed, so no design can be judged on it.\n";
-    return;
-  }
   std::vector<std::string> still, unlearnable;
   auto listed = [](const std::vector<std::string>& names, const std::string& name) {
     return std::find(names.begin(), names.end(), name) != names.end();
@@ -303,6 +299,15 @@ void describeDesigns(const Curves& curves, std::ostream& md) {
   for (const auto& object : curves.objects) {
     if (listed(curves.unlearnable, object)) unlearnable.push_back(object);
     else if (!listed(curves.moving, object)) still.push_back(object);
+  }
+  if (curves.moving.empty()) {
+    // Say why, object by object: "nothing moved" is wrong when the objects moved but the world redraws them.
+    md << "No learnable object of the evaluation set moves when pushed, so no design can be judged on it"
+       << (curves.objects.empty() ? " (the evaluation set is empty)" : "")
+       << (still.empty() ? "" : "; " + joined(still) + " did not move")
+       << (unlearnable.empty() ? "" : "; the world redraws " + joined(unlearnable) + " before every push")
+       << ".\n";
+    return;
   }
   md << "Measured as studies measure it (doc/studies.md): the mean over the run of the log of the prediction error, "
         "averaged with equal weight over the learnable objects that move when pushed (" << joined(curves.moving)
@@ -474,7 +479,7 @@ std::string buildReport(KnowledgeBase& kb, const Options& options, const std::ve
   }
   describeDesigns(curves, md);
   describeCompetence(curves, md);
-  describeReach(curves.curves, md);
+  if (!curves.moving.empty()) describeReach(curves.curves, md);  // on nothing learnable it is noise alone
   describeFeatures(kb, runs, options, md);
   describeNotions(kb, runs, options, md);
   if (!options.goals.empty()) describeGoals(kb, runs, options.goals, md);
