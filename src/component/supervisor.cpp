@@ -352,6 +352,7 @@ bool Supervisor::unload(const SupervisedComponent& component, std::string* why) 
 
 void Supervisor::requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const {
   const std::string service = component.name + "/" + toString(transition);
+  if (!ros::ok()) throw std::runtime_error(service + " not asked: this process is shutting down");
   if (!ros::service::waitForService(service, ros::Duration(startup_timeout_))) {
     throw std::runtime_error(component.name + " offers no " + service + " service within " +
                              core::describeNumber(startup_timeout_) + " s");
@@ -364,6 +365,12 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
   for (;;) {
     const CallOutcome outcome = callWithin(service, call, startup_timeout_);
     if (outcome == CallOutcome::Answered) break;
+    // A process that is shutting down can no longer hear an answer: asking again until ~startup_timeout held a
+    // manager's exit (the supervisor's nodelet deactivating the others from its destructor) until roslaunch's
+    // SIGTERM, 15 s after its SIGINT, at the end of every run.
+    if (!ros::ok()) {
+      throw std::runtime_error("call to " + service + " failed and this process is shutting down; not asked again");
+    }
     if (outcome == CallOutcome::NoAnswer) {  // asking again would only queue behind the call still running
       throw std::runtime_error(component.name + " did not answer its " + toString(transition) + " within " +
                                core::describeNumber(startup_timeout_) + " s (the transition is still running or stuck)");
