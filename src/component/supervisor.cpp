@@ -367,7 +367,7 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
     if (outcome == CallOutcome::Answered) break;
     // A process that is shutting down can no longer hear an answer: asking again until ~startup_timeout held a
     // manager's exit (the supervisor's nodelet deactivating the others from its destructor) until roslaunch's
-    // SIGTERM, 15 s after its SIGINT, at the end of every run.
+    // SIGTERM, 15 s after its SIGINT, at the end of about a third of runs.
     if (!ros::ok()) {
       throw std::runtime_error("call to " + service + " failed and this process is shutting down; not asked again");
     }
