@@ -3,13 +3,22 @@
 # then `roslaunch xpersif view.launch` (rviz seen from straight above, and telesim_view) under Xvfb. XPERSim is
 # paused for the shot; the robot and every object of the world must show their colour where ground truth
 # says, in the rviz screenshot and in telesim_view's rendered image. Objects, colours and the arena come from
-# XPERSim's scene, so any world works: test/rviz_main_screenshot.sh [WORLD_FILE].
+# XPERSim's scene, so any world works: test/rviz_main_screenshot.sh [WORLD_FILE | generated:SEED:OBJECTS], the
+# latter a world `xpersif generate-world` writes for that seed. The loop's text over the arena must say what the
+# run is doing and nothing it does not know yet.
 # The screenshot and telesim's image are kept in ${VIEW_SCREENSHOT_DIR:-/tmp/xpersif_view_screenshot}.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-world=$(realpath "${1:-$repo/worlds/default.yaml}")
+world_arg=${1:-$repo/worlds/default.yaml}
 XPERSIF_NEW_MASTER=1 source "$repo/scripts/env.sh"
 work=$(mktemp -d)
+if [[ $world_arg == generated:* ]]; then
+  IFS=: read -r _ seed objects <<<"$world_arg"
+  world=$work/generated_$seed.yaml
+  xpersif generate-world --seed "$seed" --objects "$objects" --out "$world"
+else
+  world=$(realpath "$world_arg")
+fi
 keep=${VIEW_SCREENSHOT_DIR:-/tmp/xpersif_view_screenshot}
 mkdir -p "$keep" "$work/telesim"
 export ROS_LOG_DIR=$work/ros_log

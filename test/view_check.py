@@ -7,7 +7,9 @@
   view_check.py scale                       px/m of a top-down view that shows the whole arena
   view_check.py shot OUT.json SHOT.png      once a run is experimenting, pause XPERSim, screenshot the display
                                             (SHOT.png "-": none), keep ground truth + scene + the loop's experiment
-  view_check.py rviz OUT.json SHOT.png      each body's colour near its ground-truth pose in the top-down shot
+  view_check.py rviz OUT.json SHOT.png      each body's colour near its ground-truth pose in the top-down shot,
+                                            and the loop's text over the arena true to the run (no placeholder,
+                                            no surprise before the run's first experiment)
   view_check.py telesim OUT.json IMAGE.png CAMERA [LABEL]
                                             the same in an image rendered through that scene camera (telesim_view's,
                                             or the web page's view of it)
@@ -17,6 +19,7 @@ Nothing is hard-coded about the world: objects, colours, the robot and the arena
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -135,6 +138,7 @@ def shot(out, png):
     time.sleep(4)  # the last frame reaches every viewer; software GL renders it
     sub.unregister()
     truth = latest[-1]
+    overlay = overlay_now()
     if png != "-":
         subprocess.check_call(["/usr/bin/import", "-window", "root", png])
     bodies = {}
@@ -150,6 +154,7 @@ def shot(out, png):
         radii[name] = math.hypot(size.x, size.y) / 2 if v.type == v.BOX else v.radius
     arena = nodes["arena"].visuals
     json.dump({"time": truth.header.stamp.to_sec(), "experiment": experiment[-1] if experiment else None,
+               "overlay": overlay,
                "bodies": bodies, "colours": colours, "radii": radii,
                "robot": [n for n in truth.names if n not in scene.objects],
                "arena": [scene.arena_size_x, scene.arena_size_y],
@@ -163,6 +168,42 @@ def shot(out, png):
                                     n.transform.rotation.w]] for n in scene.nodes}}, open(out, "w"), indent=1)
     print("ground truth at t=%.3f: %s" % (truth.header.stamp.to_sec(),
                                           {k: [round(c, 3) for c in v[:2]] for k, v in bodies.items()}))
+
+
+def overlay_now():
+    """The text a viewer's rviz shows over the arena (progress_markers' latched markers) and how many
+    experiments of the run MOTIVATION had heard of when it was drawn."""
+    import rospy
+    from visualization_msgs.msg import MarkerArray
+    from xpersif.msg import Motivation, RunLoopFeedback
+    topics = [t for t, _ in rospy.get_published_topics() if t.endswith("/progress_markers/markers")]
+    if not topics:
+        return None
+    markers = rospy.wait_for_message(topics[0], MarkerArray, timeout=10)
+    motivation = rospy.wait_for_message(NS + "/motivation/motivation", Motivation, timeout=10)
+    progress = rospy.wait_for_message(NS + "/loop_model/progress", RunLoopFeedback, timeout=10)
+    return {"lines": [m.text for m in sorted(markers.markers, key=lambda m: m.id) if m.action == m.ADD],
+            "experiments_heard": motivation.experiments, "loop_state": progress.state}
+
+
+def check_overlay(data):
+    """The overlay says what it knows and nothing it does not: LOOPMODEL's state, no placeholder, no surprise
+    before the run's first experiment."""
+    overlay = data.get("overlay")
+    if not overlay or not overlay["lines"]:
+        print("overlay: no progress text in the view")
+        return ["overlay"]
+    for line in overlay["lines"]:
+        print("overlay: %s" % line)
+    failures = []
+    if not overlay["lines"][0].startswith("loop: %s " % overlay["loop_state"]):
+        failures.append("overlay's loop state (LOOPMODEL's is %s)" % overlay["loop_state"])
+    if "?" in " ".join(overlay["lines"]):
+        failures.append("overlay's placeholder")
+    claims_surprise = any(re.search(r"surprise [0-9]", line) for line in overlay["lines"])
+    if claims_surprise != (overlay["experiments_heard"] > 0):
+        failures.append("overlay's surprise after %d experiments" % overlay["experiments_heard"])
+    return failures
 
 
 def check_bodies(data, w, h, raw, project, px_per_m, where):
@@ -236,7 +277,7 @@ def check_rviz(data_path, png):
         print("FAIL: the arena is not where a top-down view puts it (%.0f vs %.0f px/m)" % (sx, sy))
         return 1
     failures = check_bodies(data, w, h, raw, lambda x, y, z: (cu + sx * x, cv - sy * y), sx, "rviz")
-    return report(failures)
+    return report(failures + check_overlay(data))
 
 
 def transform_point(data, frame, p):

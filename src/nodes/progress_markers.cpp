@@ -84,10 +84,16 @@ class ProgressMarkers {
     std::ostringstream head;
     head << "loop: " << (progress_.state.empty() ? "waiting for LOOPMODEL" : progress_.state);
     if (!run_.empty()) head << "  run " << run_;
-    head << "  experiment " << progress_.experiment << "  design " << (design_.empty() ? "?" : design_);
+    head << "  experiment " << progress_.experiment;
+    // A viewer that joins mid-run has missed the run's goal; it learns the design from the next experiment.
+    if (!design_.empty()) head << "  design " << design_;
     lines.push_back(head.str());
     char buffer[160];
-    if (have_motivation_) {
+    // Before the run's first experiment there is no surprise to show, and every region is equally curious.
+    const bool no_experiment_yet = have_motivation_ ? motivation_.experiments == 0 : progress_.experiment == 0;
+    if (no_experiment_yet) {
+      std::snprintf(buffer, sizeof buffer, "no experiment yet: no surprise, no curiosity");
+    } else if (have_motivation_) {
       std::snprintf(buffer, sizeof buffer, "last surprise %.3f m (%.1f sd), most curious: %s", motivation_.surprise,
                     motivation_.normalized_surprise,
                     motivation_.most_curious.empty() ? "-" : motivation_.most_curious.c_str());
