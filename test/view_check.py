@@ -138,7 +138,7 @@ def shot(out, png):
     time.sleep(4)  # the last frame reaches every viewer; software GL renders it
     sub.unregister()
     truth = latest[-1]
-    overlay = overlay_now()
+    overlay = overlay_now(state[-1] if state else "")
     if png != "-":
         subprocess.check_call(["/usr/bin/import", "-window", "root", png])
     bodies = {}
@@ -170,20 +170,19 @@ def shot(out, png):
                                           {k: [round(c, 3) for c in v[:2]] for k, v in bodies.items()}))
 
 
-def overlay_now():
-    """The text a viewer's rviz shows over the arena (progress_markers' latched markers) and how many
-    experiments of the run MOTIVATION had heard of when it was drawn."""
+def overlay_now(loop_state):
+    """The text a viewer's rviz shows over the arena (progress_markers' latched markers), with LOOPMODEL's state
+    (as shot() last heard it) and how many experiments of the run MOTIVATION had heard of when it was drawn."""
     import rospy
     from visualization_msgs.msg import MarkerArray
-    from xpersif.msg import Motivation, RunLoopFeedback
+    from xpersif.msg import Motivation
     topics = [t for t, _ in rospy.get_published_topics() if t.endswith("/progress_markers/markers")]
     if not topics:
         return None
     markers = rospy.wait_for_message(topics[0], MarkerArray, timeout=10)
     motivation = rospy.wait_for_message(NS + "/motivation/motivation", Motivation, timeout=10)
-    progress = rospy.wait_for_message(NS + "/loop_model/progress", RunLoopFeedback, timeout=10)
     return {"lines": [m.text for m in sorted(markers.markers, key=lambda m: m.id) if m.action == m.ADD],
-            "experiments_heard": motivation.experiments, "loop_state": progress.state}
+            "experiments_heard": motivation.experiments, "loop_state": loop_state}
 
 
 def check_overlay(data):
@@ -277,7 +276,10 @@ def check_rviz(data_path, png):
         print("FAIL: the arena is not where a top-down view puts it (%.0f vs %.0f px/m)" % (sx, sy))
         return 1
     failures = check_bodies(data, w, h, raw, lambda x, y, z: (cu + sx * x, cv - sy * y), sx, "rviz")
-    return report(failures + check_overlay(data))
+    overlay = check_overlay(data)
+    if overlay:
+        print("FAIL: the loop's text over the arena: %s" % ", ".join(overlay))
+    return max(report(failures), 1 if overlay else 0)
 
 
 def transform_point(data, frame, p):
