@@ -10,8 +10,9 @@
 
 Every cell (design, seed) is one experiment file (OUT/experiments/) run by `roslaunch xpersif experiment.launch`
 on a master of its own, into its own run directory (OUT/cells/DESIGN-seedNNN/), as many at once as --jobs
-(default: the number of cores). First, once per study, the held-out evaluation set: M random pushes on the
-learnable objects only (OUT/evaluation/, exported to OUT/evaluation_set.csv), the same for every design and seed.
+(default: the number of cores). First, once per study, the held-out evaluation set: M uniform random pushes on the
+learnable objects, each in turn (OUT/evaluation/, exported to OUT/evaluation_set.csv), the same for every design and
+seed.
 Two arms besides the designs: random_null (random design on other seeds: what chance alone gives) and oracle (random
 design on the learnable objects that move, known from the evaluation set; it starts when that set is done). The
 report's primary measure is study_measures.py's.
@@ -50,6 +51,10 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # any other key (e.g. a property the simulator redraws before each push) is taken as unlearnable.
 # The null arm runs random design on these seeds plus this offset, so that it shares no seed with random.
 NULL_SEED_OFFSET = 1000003
+# The evaluation set pushes each evaluation object in turn (a uniform random push each time), so that every object the
+# measure weighs equally has as many pushes; 32 each, so that a push MANIPULATION refuses leaves at least 30.
+EVALUATION_DESIGN = "round_robin"
+EVALUATION_PUSHES_PER_OBJECT = 32
 STATIC_OBJECT_KEYS = {"name", "shape", "size", "radius", "length", "mass", "friction", "color", "pose"}
 
 
@@ -77,7 +82,8 @@ def parse_args(argv):
                    help="cells at once (default: the cores; slurm: at most this many tasks of an array at once, "
                         "default no limit)")
     p.add_argument("--evaluation-size", type=int, default=None,
-                   help="pushes of the held-out evaluation set (default 30 per evaluation object)")
+                   help="pushes of the held-out evaluation set, each evaluation object in turn (default %d per "
+                        "evaluation object)" % EVALUATION_PUSHES_PER_OBJECT)
     p.add_argument("--evaluation-objects", default=None,
                    help="objects of the evaluation set (default: the world's objects but the unlearnable ones)")
     p.add_argument("--evaluation-seed", type=int, default=999, help="seed of the evaluation set")
@@ -136,7 +142,8 @@ def parse_args(argv):
         a.out = os.path.join(REPO, "studies", datetime.datetime.now().strftime("%Y%m%d-%H%M%S"))
     a.out = os.path.abspath(a.out)
     if a.timeout is None:
-        a.timeout = 240 + 10 * max(a.budget, a.evaluation_size or 0, 30 * len(world_objects(a.world)))
+        default_evaluation = EVALUATION_PUSHES_PER_OBJECT * len(world_objects(a.world))
+        a.timeout = 240 + 10 * max(a.budget, a.evaluation_size or 0, default_evaluation)
     params = {}
     for item in a.param:
         m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)\.([A-Za-z_][A-Za-z0-9_]*)=(.*)", item)
@@ -193,7 +200,8 @@ def evaluation_objects(args):
 
 def definition(args, eval_objects):
     defn = {"designs": args.designs, "seeds": args.seed_list, "budget": args.budget, "world": args.world,
-            "evaluation": {"size": args.evaluation_size, "objects": eval_objects, "seed": args.evaluation_seed},
+            "evaluation": {"size": args.evaluation_size, "objects": eval_objects, "seed": args.evaluation_seed,
+                           "design": EVALUATION_DESIGN},
             "parameters": args.params}
     if args.goals:  # only when asked, so that a study from before --goals existed still resumes
         defn["goals"] = args.goals
@@ -271,7 +279,8 @@ def plan(args, eval_objects):
     ev_params.setdefault("design_of_experiments", {})["objects"] = eval_objects
     ev_file = os.path.join(args.out, "experiments", "evaluation.yaml")
     experiment_file(ev_file, "evaluation", args.evaluation_seed, args.world,
-                    {"kind": "evaluation", "name": "evaluation", "experiments": args.evaluation_size}, ev_params)
+                    {"kind": "experimentation", "name": "evaluation", "design": EVALUATION_DESIGN,
+                     "experiments": args.evaluation_size, "goals": 0}, ev_params)
     cells = [Cell("evaluation", "evaluation", args.evaluation_seed, args.evaluation_size, ev_file,
                   os.path.join(args.out, "evaluation"))]
     for seed in args.seed_list:
@@ -1205,7 +1214,7 @@ def main(argv):
     eval_objects, eval_why = evaluation_objects(args)
     args.eval_objects = eval_objects
     if args.evaluation_size is None:
-        args.evaluation_size = 30 * len(eval_objects)
+        args.evaluation_size = EVALUATION_PUSHES_PER_OBJECT * len(eval_objects)
     cells = plan(args, eval_objects)
     if args.report_only and not any(cell.finished() for cell in cells):
         fail("--report-only: no cell of the study in %s has finished; there is nothing to report" % args.out, 3)

@@ -6,6 +6,7 @@
 Every figure of the report is recomputed here from the SQLite knowledge bases (and, for the learning curves, by
 running xpersif_study_curve again into a temporary directory) and compared.
 """
+import collections
 import csv
 import json
 import glob
@@ -51,6 +52,11 @@ con = sqlite3.connect(os.path.join(study, "evaluation", "knowledge.db"))
 ev = con.execute("SELECT seq, object FROM experiments WHERE run_id = ? AND status = 'done' ORDER BY seq", (run_id,)).fetchall()
 check(len(ev) >= 1, "the evaluation set is empty")
 check({o for _, o in ev} <= eval_objects, "the evaluation set pushes %s, outside %s" % ({o for _, o in ev}, eval_objects))
+# The objects take turns (study.py's EVALUATION_DESIGN), so that each has as many pushes; a turn passes to the next
+# object only when no push of the turn's object is feasible from where it stands.
+attempted = collections.Counter(o for (o,) in con.execute("SELECT object FROM experiments WHERE run_id = ?", (run_id,)))
+turns = [attempted[o] for o in eval_objects]
+check(max(turns) - min(turns) <= 2, "the evaluation set's objects did not take turns: %s" % dict(attempted))
 stored = rows(os.path.join(study, "evaluation_set.csv"))
 check([int(r["seq"]) for r in stored] == [s for s, _ in ev], "evaluation_set.csv is not the evaluation run's pushes")
 all_objects = [o for (o,) in con.execute("SELECT DISTINCT object FROM experiments")]
