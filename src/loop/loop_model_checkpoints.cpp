@@ -72,7 +72,9 @@ std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t ste
     if (!stored.response.found) return "no world state is stored for step " + std::to_string(step);
     restore.request.state = stored.response.state;
   }
-  const std::string why = callPatiently(nodeHandle(), "xpersim/restore", restore);
+  // Patient with restore's unmet precondition too: standing(sim) fails only while a lockstep participant still
+  // wants time (a command of the lost step winding down, a paused XPERSim), and the world stands once it has it.
+  const std::string why = callPatiently(nodeHandle(), "xpersim/restore", restore, 60.0, true);
   if (!why.empty()) return why;
   world_lineage_ = restore.response.lineage;
   awaitClock(restore.response.clock);
