@@ -14,6 +14,7 @@
 namespace xpersif {
 
 using loop::callPatiently;
+using loop::callWhenReady;
 
 void LoopModel::onComponentLost(const SupervisedComponent& component, const std::string& reason) {
   (void)component;
@@ -74,7 +75,7 @@ std::string LoopModel::restoreCheckpoint(std::uint64_t run_id, std::uint32_t ste
   }
   // Patient with restore's unmet precondition too: standing(sim) fails only while a lockstep participant still
   // wants time (a command of the lost step winding down, a paused XPERSim), and the world stands once it has it.
-  const std::string why = callPatiently(nodeHandle(), "xpersim/restore", restore, 60.0, true);
+  const std::string why = callWhenReady(nodeHandle(), "xpersim/restore", restore, {});
   if (!why.empty()) return why;
   world_lineage_ = restore.response.lineage;
   awaitClock(restore.response.clock);
