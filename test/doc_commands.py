@@ -17,7 +17,9 @@ A run block passes when it exits 0 and every file its output says it wrote ("wro
 Fences of other kinds (```yaml, ```text, ```cpp...) are not commands; a fence without a language, or in ```sh or
 ```console, is refused, so that no command block escapes the test. Run blocks share one scratch environment:
 XPERSIF_RUN_DIR (run.sh's documented variable) points under a temporary directory, so runs write nothing into the
-tree unless a block names a directory itself.
+tree unless a block names a directory itself. XPERSIF_DOC_SCRATCH is that temporary directory, the same for every
+block of one run: a marker's args can redirect a block's output there (args="--out $XPERSIF_DOC_SCRATCH/first"),
+so that what a developer left in the tree cannot decide whether the block passes.
 
 usage: doc_commands.py [--list] [--only FILE[:LINE]] [--tests FILE | --ctest BUILD_DIR] REPO [MARKDOWN...]
        doc_commands.py --self-test REPO
@@ -140,6 +142,7 @@ def run_block(block, repo, scratch):
                  "LD_PRELOAD"):
         env.pop(name, None)  # a reader's fresh shell
     env["XPERSIF_RUN_DIR"] = os.path.join(scratch, "run-%s-%d" % (os.path.basename(block.path), block.line))
+    env["XPERSIF_DOC_SCRATCH"] = scratch
     env["ROS_HOME"] = os.path.join(scratch, "ros_home")
     script = os.path.join(scratch, "block.sh")
     with open(script, "w") as f:
@@ -273,17 +276,20 @@ def self_test(repo):
                 failures.append("%s: expected a problem saying '%s', got %s" % (name, expected, problems or "none"))
         good = os.path.join(tmp, "good.md")
         with open(good, "w") as f:
-            f.write('<!-- doc-test: run -->\n```bash\ntest -f package.xml\necho "wrote $PWD/package.xml"\n```\n\n'
-                    '```yaml\nkey: value\n```\n')
+            f.write('<!-- doc-test: run -->\n```bash\ntest -f package.xml\necho "wrote $PWD/package.xml"\n'
+                    'touch "$XPERSIF_DOC_SCRATCH/shared"\n```\n\n'
+                    '```yaml\nkey: value\n```\n\n'
+                    '<!-- doc-test: run -->\n```bash\ntest -f "$XPERSIF_DOC_SCRATCH/shared"\n```\n')
         problems, results = run_all(repo, [good], None, set(), False)
-        if problems or len(results) != 1:
-            failures.append("good.md: expected one passing block and no problem, got %s" % problems)
+        if problems or len(results) != 2:
+            failures.append("good.md: expected two passing blocks sharing XPERSIF_DOC_SCRATCH and no problem, got %s"
+                            % problems)
     for f in failures:
         print("doc_commands self-test: " + f, file=sys.stderr)
     if not failures:
         print("doc_commands self-test: a broken command, a command claiming a file it did not write, a link to "
-              "nothing, an unmarked block, an unlabelled fence and a skip naming no test each fail the test; a good "
-              "block passes")
+              "nothing, an unmarked block, an unlabelled fence and a skip naming no test each fail the test; good "
+              "blocks pass and share a scratch directory")
     return 1 if failures else 0
 
 
