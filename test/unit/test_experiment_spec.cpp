@@ -67,7 +67,7 @@ TEST_F(ExperimentFileTest, ValidFileWithDefaults) {
   EXPECT_EQ(spec.recording.compression, "lz4");
   ASSERT_EQ(spec.phases.size(), 2u);
   EXPECT_EQ(spec.phases[0].kind, "evaluation");
-  EXPECT_EQ(spec.phases[0].design, "random");
+  EXPECT_EQ(spec.phases[0].design, "round_robin");  // every object the same number of evaluation pushes
   EXPECT_EQ(spec.phases[0].experiments, 4u);
   EXPECT_EQ(spec.phaseSeed(0), 1001u);
   EXPECT_EQ(spec.phases[1].goals, 2u);

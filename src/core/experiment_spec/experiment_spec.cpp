@@ -341,7 +341,9 @@ PhaseSpec readPhase(const Reader& r, const YAML::Node& p, const std::string& key
   if (!p["name"]) r.fail(key + ".name", "is missing; every phase is a run with a name", p);
   phase.name = r.identifier(p["name"], key + ".name");
   if (!names.insert(phase.name).second) r.fail(key + ".name", "'" + phase.name + "' is used twice", p["name"]);
-  phase.design = "random";
+  // The evaluation set gives the objects turns (a uniform random push each), so that every object the report
+  // weighs equally is judged on as many pushes, as a study's evaluation set does (scripts/study.py).
+  phase.design = phase.kind == "evaluation" ? "round_robin" : "random";
   if (phase.kind == "experimentation") {
     if (!p["design"]) r.fail(key + ".design", "is missing; it must be one of " + joined(kDesigns), p);
     phase.design = r.oneOf(p["design"], key + ".design", kDesigns);
