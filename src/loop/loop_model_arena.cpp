@@ -12,6 +12,7 @@
 
 #include "xpersif/GetFeatures.h"
 #include "xpersif/SetPose.h"
+#include "xpersif/core/common/validation.h"
 #include "xpersif/ros/experiment_conversions.h"
 #include "xpersif/ros/setup_loader.h"
 #include "loop_text.h"
@@ -55,13 +56,18 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
   double newer_than = ros::Time::now().toSec();
   // 10 s of wall time while simulated time moves: a paused XPERSim (someone watching a frame) stops the clock,
   // and a wait for a new frame then waits as long as the pause (it once aborted the run after 10 s).
+  // In lockstep, simulated time that moves while LOOPMODEL asks for none is another participant's (a user's
+  // controller, a test) and no frame comes until the world stands: that wait counts no more than a pause.
   ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
   ros::WallTime last_wall = ros::WallTime::now();
   ros::Time last_sim = ros::Time::now();
+  const ros::Time first_sim = last_sim;
+  ros::WallTime last_moved = last_wall;  // when simulated time last went on
   const ros::WallTime give_up = last_wall + ros::WallDuration(600.0);  // a clock that never moves again
   while (ros::ok()) {
     const ros::WallTime wall_now = ros::WallTime::now();
-    if (ros::Time::now() == last_sim) deadline += wall_now - last_wall;  // the clock stood still meanwhile
+    if (ros::Time::now() == last_sim || lockstep_->enabled()) deadline += wall_now - last_wall;
+    if (ros::Time::now() != last_sim) last_moved = wall_now;
     last_wall = wall_now;
     last_sim = ros::Time::now();
     // Simulated time that went backwards means XPERSim was restarted (its manager died and was respawned): its
@@ -75,7 +81,13 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
       return true;
     }
     if (ros::WallTime::now() > deadline || ros::WallTime::now() > give_up) {
-      if (why->empty()) {
+      const double moved = (ros::Time::now() - first_sim).toSec();
+      const bool still_moving = (ros::WallTime::now() - last_moved).toSec() < 1.0;
+      if (lockstep_->enabled() && still_moving && moved > 0) {  // the cause is the moving world, not VISION's answer
+        *why = "no new observation of the scene came within 600 s: another lockstep participant kept the world moving "
+               "(simulated time went on by " + core::describeNumber(moved) + " s), and a frame comes only when it "
+               "stands" + (why->empty() ? std::string() : " (vision/get_features: " + *why + ")");
+      } else if (why->empty()) {
         *why = ros::WallTime::now() > give_up
                    ? "no new observation of the scene came within 600 s: the simulator's clock stood still"
                    : "no new observation of the scene came within 10 s while simulated time went on";

@@ -1,6 +1,7 @@
 // The whole system: LOOPMODEL brings up XPERSim, the embodiment, the knowledge base and the loop's
 // components; a short run goes through every state; with --kill, the knowledge base's manager is killed
-// (SIGKILL) mid-run, respawned and restarted by LOOPMODEL, and the run still completes with nothing lost.
+// (SIGKILL) mid-run, respawned and restarted by LOOPMODEL, and the run still completes with nothing lost, although
+// a lockstep participant of the test's own wants time (the world is moving) when LOOPMODEL puts the world back.
 #include <actionlib/client/simple_action_client.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <csignal>
 #include <set>
+#include <thread>
 
 #include "ground_truth.h"
 #include "test_helpers.h"
@@ -25,6 +27,7 @@
 #include "xpersif/ResultCode.h"
 #include "xpersif/RunLoopAction.h"
 #include "xpersif/UseFeatures.h"
+#include "xpersif/component/lockstep_client.h"
 
 using xpersif_test::Recorder;
 using xpersif_test::waitFor;
@@ -114,11 +117,29 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   EXPECT_NE(client.getState().getText().find("valid_run"), std::string::npos) << client.getState().getText();
 
   client.sendGoal(goal);
+  struct Joined {  // joined however the test ends (the thread ends by itself within 20 s)
+    std::thread thread;
+    ~Joined() {
+      if (thread.joinable()) thread.join();
+    }
+  } busy;  // --kill: a participant that wants time while the world is put back
   if (kill_mid_run) {
     ASSERT_TRUE(waitFor([&] { return !records.messages().empty(); }, 300.0)) << "no experiment recorded";
     const int pid = pidOf(ns + "kb_manager");
     ASSERT_GT(pid, 0);
     ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    // While LOOPMODEL waits for the knowledge base and then puts the world back for the experiment again, another
+    // participant wants time (as a paused XPERSim or a slow controller makes one do): XPERSim refuses to restore a
+    // moving world, and the loop must wait for it to stand rather than end the run.
+    busy.thread = std::thread([] {
+      try {
+        xpersif::LockstepClient participant(ros::NodeHandle(ns), ros::NodeHandle("~"), "loop_tester_busy", false);
+        const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(20.0);
+        participant.sleepFor(ros::Duration(1e6), [&] { return ros::WallTime::now() > until; });
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << "the test's participant could not take part: " << e.what();
+      }
+    });
   }
   ASSERT_TRUE(client.waitForResult(ros::Duration(600.0)));
   ASSERT_EQ(client.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << client.getState().getText();
