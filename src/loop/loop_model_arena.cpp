@@ -64,15 +64,17 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
   const ros::Time first_sim = last_sim;
   ros::WallTime last_moved = last_wall;  // when simulated time last went on
   const ros::WallTime give_up = last_wall + ros::WallDuration(600.0);  // a clock that never moves again
+  const bool lockstep = lockstep_->enabled();
   while (ros::ok()) {
     const ros::WallTime wall_now = ros::WallTime::now();
-    if (ros::Time::now() == last_sim || lockstep_->enabled()) deadline += wall_now - last_wall;
-    if (ros::Time::now() != last_sim) last_moved = wall_now;
+    const ros::Time sim_now = ros::Time::now();  // read once: the clock may tick between two reads
+    if (sim_now == last_sim || lockstep) deadline += wall_now - last_wall;
+    if (sim_now != last_sim) last_moved = wall_now;
     last_wall = wall_now;
-    last_sim = ros::Time::now();
+    last_sim = sim_now;
     // Simulated time that went backwards means XPERSim was restarted (its manager died and was respawned): its
     // clock began again, and the world standing now is the restarted one; a frame newer than that is the scene.
-    newer_than = std::min(newer_than, ros::Time::now().toSec());
+    newer_than = std::min(newer_than, sim_now.toSec());
     GetFeatures features;
     features.request.max_age = 2.0;
     *why = call(nodeHandle(), "vision/get_features", features);
@@ -83,7 +85,7 @@ bool LoopModel::getScene(FeatureVector* scene, std::string* why) {
     if (ros::WallTime::now() > deadline || ros::WallTime::now() > give_up) {
       const double moved = (ros::Time::now() - first_sim).toSec();
       const bool still_moving = (ros::WallTime::now() - last_moved).toSec() < 1.0;
-      if (lockstep_->enabled() && still_moving && moved > 0) {  // the cause is the moving world, not VISION's answer
+      if (lockstep && still_moving && moved > 0) {  // the cause is the moving world, not VISION's answer
         *why = "no new observation of the scene came within 600 s: another lockstep participant kept the world moving "
                "(simulated time went on by " + core::describeNumber(moved) + " s), and a frame comes only when it "
                "stands" + (why->empty() ? std::string() : " (vision/get_features: " + *why + ")");

@@ -1,7 +1,8 @@
 // The whole system: LOOPMODEL brings up XPERSim, the embodiment, the knowledge base and the loop's
 // components; a short run goes through every state; with --kill, the knowledge base's manager is killed
 // (SIGKILL) mid-run, respawned and restarted by LOOPMODEL, and the run still completes with nothing lost, although
-// a lockstep participant of the test's own wants time (the world is moving) when LOOPMODEL puts the world back.
+// a lockstep participant of the test's own wants time (the world is moving) while LOOPMODEL puts the world back
+// and looks at the scene.
 #include <actionlib/client/simple_action_client.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -130,7 +131,7 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
     ASSERT_EQ(::kill(pid, SIGKILL), 0);
     // While LOOPMODEL waits for the knowledge base and then puts the world back for the experiment again, another
     // participant wants time (as a paused XPERSim or a slow controller makes one do): XPERSim refuses to restore a
-    // moving world, and the loop must wait for it to stand rather than end the run.
+    // moving world, and no frame comes until it stands; the loop must wait for that rather than end the run.
     busy.thread = std::thread([] {
       try {
         xpersif::LockstepClient participant(ros::NodeHandle(ns), ros::NodeHandle("~"), "loop_tester_busy", false);
