@@ -164,7 +164,9 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   // Designed experiments first (seq 1..N), then the goal-directed pushes; none lost, none twice.
   EXPECT_GE(stored.response.experiments.size(), goal.experiments);
   for (std::uint32_t seq = 1; seq <= goal.experiments; ++seq) EXPECT_TRUE(seqs.count(seq)) << "experiment " << seq << " lost";
-  if (goal.goals == 0) EXPECT_EQ(stored.response.experiments.size(), goal.experiments);
+  if (goal.goals == 0) {
+    EXPECT_EQ(stored.response.experiments.size(), goal.experiments);
+  }
   // MOTIVATION spoke after the experiments it saw (those before a kill may have been missed by this recorder).
   EXPECT_FALSE(motivation.messages().empty());
   // The run's command went through: events mirror it.
