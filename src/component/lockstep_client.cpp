@@ -17,15 +17,26 @@ const core::ParameterTable& LockstepClient::parameters() {
   return table;
 }
 
+std::string LockstepClient::xpersimOf(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
+  std::string key, xpersim = std::get<std::string>(parameters().at("lockstep_xpersim").default_value);
+  if (private_nh.searchParam("lockstep_xpersim", key)) private_nh.getParam(key, xpersim);
+  return nh.resolveName(xpersim);
+}
+
+namespace {
+bool clockModeIsLockstep(const std::string& xpersim) {
+  std::string mode;
+  return ros::param::get(xpersim + "/clock_mode", mode) && mode == "lockstep";
+}
+}  // namespace
+
+bool LockstepClient::runsInLockstep(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh) {
+  return clockModeIsLockstep(xpersimOf(nh, private_nh));
+}
+
 LockstepClient::LockstepClient(ros::NodeHandle nh, const ros::NodeHandle& private_nh, std::string name, bool sensor)
-    : nh_(std::move(nh)),
-      name_(std::move(name)),
-      xpersim_(std::get<std::string>(parameters().at("lockstep_xpersim").default_value)),
-      sensor_(sensor) {
-  std::string key, mode;
-  if (private_nh.searchParam("lockstep_xpersim", key)) private_nh.getParam(key, xpersim_);
-  xpersim_ = nh_.resolveName(xpersim_);
-  enabled_ = ros::param::get(xpersim_ + "/clock_mode", mode) && mode == "lockstep";
+    : nh_(std::move(nh)), name_(std::move(name)), xpersim_(xpersimOf(nh_, private_nh)), sensor_(sensor) {
+  enabled_ = clockModeIsLockstep(xpersim_);
   if (!enabled_) return;
   done_pub_ = nh_.advertise<LockstepDone>(xpersim_ + "/lockstep_done", 100);
   // Its own queue and thread: a tick waits for no other callback of the manager (a cold start once kept every

@@ -11,6 +11,7 @@
 #include "xpersif/GetContracts.h"
 #include "xpersif/ResultCode.h"
 #include "xpersif/component/action_wait.h"
+#include "xpersif/component/lockstep_client.h"
 #include "xpersif/decision/decision_common.h"
 #include "xpersif/decision/planner_component.h"
 
@@ -164,11 +165,13 @@ Execution::Execution(ros::NodeHandle nh, ros::NodeHandle private_nh)
 Execution::~Execution() = default;
 
 const core::ParameterTable& Execution::parameters() {
-  static const core::ParameterTable table(
+  static const core::ParameterTable table = [] {
+    core::ParameterTable own(
       "execution",
       {core::numberParameter("max_age", 1.0, 0.0, 3600.0, "s: the oldest feature vector an observation step accepts"),
        core::numberParameter("fresh_timeout", 5.0, 0.0, 600.0,
-                             "s to wait for a feature vector newer than the step's request"),
+                             "s of simulated time to wait for a feature vector newer than the step's request (lockstep: "
+                             "time another participant moves the world does not count; ~step_timeout of wall time bounds it)"),
        core::numberParameter("server_timeout", 10.0, 0.01, 600.0,
                              "s of wall time to wait for a component's invoke or get_contracts"),
        core::numberParameter("step_timeout", 300.0, 1.0, 36000.0, "s a step may take"),
@@ -177,6 +180,9 @@ const core::ParameterTable& Execution::parameters() {
        core::namesParameter("components", {"observation", "vision", "manipulation", "relocation"}, 64,
                             "the components whose contracts are the replanning operators"),
        core::namesParameter("prefer", {"vision"}, 64, "components preferred when operators tie")});
+    own.include(LockstepClient::parameters());
+    return own;
+  }();
   return table;
 }
 
@@ -192,7 +198,9 @@ void Execution::onConfigure() {
   const std::vector<std::string> components = parameters.get<std::vector<std::string>>("components");
   const std::vector<std::string> prefer = parameters.get<std::vector<std::string>>("prefer");
   for (const auto& c : components) core::requireIdentifier("~components entry", c);
+  const bool lockstep = LockstepClient::runsInLockstep(nodeHandle(), pnh);
   std::lock_guard<std::mutex> lock(mutex_);
+  lockstep_ = lockstep;
   max_age_ = max_age;
   fresh_timeout_ = fresh_timeout;
   server_timeout_ = server_timeout;
@@ -280,14 +288,51 @@ std::string Execution::invokeStep(ExecutePlan::Context& context, const PlanStep&
   return state.toString() + (text.empty() ? "" : ": " + text);
 }
 
+namespace {
+/// How long an observation step waits for a feature vector newer than it needs. Outside lockstep: ~fresh_timeout
+/// of simulated time (a paused clock stops the wait with the world). In lockstep, EXECUTION runs no command while it
+/// observes, so simulated time that moves is another participant's (a user's controller, a test), and no frame
+/// comes until the world stands: as for LOOPMODEL's scene, that wait does not count, and only ~step_timeout of wall
+/// time bounds it (the sim-time deadline would pass in a fraction of a second and fail a step nobody did wrong).
+class FreshWait {
+ public:
+  FreshWait(bool lockstep, double fresh_timeout, double step_timeout)
+      : lockstep_(lockstep),
+        step_timeout_(step_timeout),
+        first_sim_(ros::Time::now()),
+        deadline_(first_sim_ + ros::Duration(fresh_timeout)),
+        give_up_(ros::WallTime::now() + ros::WallDuration(step_timeout)) {}
+
+  bool over() const { return lockstep_ ? ros::WallTime::now() > give_up_ : ros::Time::now() > deadline_; }
+  /// The cause to put before the last refusal, when it is not the step's source.
+  std::string cause() const {
+    const double moved = (ros::Time::now() - first_sim_).toSec();
+    if (!lockstep_) return "";
+    if (moved <= 0) return "no newer frame within ~step_timeout " + core::describeNumber(step_timeout_) + " s of wall time (the world stood): ";
+    return "another lockstep participant kept the world moving (simulated time went on by " + core::describeNumber(moved) +
+           " s within ~step_timeout " + core::describeNumber(step_timeout_) + " s of wall time), and a frame comes "
+           "only when it stands: ";
+  }
+
+ private:
+  bool lockstep_;
+  double step_timeout_;
+  ros::Time first_sim_, deadline_;
+  ros::WallTime give_up_;
+};
+}  // namespace
+
 std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& step, bool is_command,
                                ExecutePlanResult& result, bool& cancelled, std::uint8_t& code) {
-  double fresh_timeout;
+  double fresh_timeout, step_timeout;
+  bool lockstep;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     fresh_timeout = fresh_timeout_;
+    step_timeout = step_timeout_;
+    lockstep = lockstep_;
   }
-  const ros::Time deadline = ros::Time::now() + ros::Duration(fresh_timeout);
+  FreshWait wait(lockstep, fresh_timeout, step_timeout);
   while (true) {
     InvokeResultConstPtr r;
     std::string why = invokeStep(context, step, false, cancelled, code, &r);
@@ -296,10 +341,8 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
     if (!why.empty()) {
       // An observation refused now (its source's latest vector too old: a camera coming back after its simulator
       // was restarted) is given a moment later; a command is not repeated here, nor are bad values.
-      if (is_command || cancelled || code == ResultCode::INVALID || context.stopRequested() ||
-          ros::Time::now() > deadline) {
-        return why;
-      }
+      if (is_command || cancelled || code == ResultCode::INVALID || context.stopRequested()) return why;
+      if (wait.over()) return wait.cause() + why;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
       continue;
     }
@@ -326,9 +369,9 @@ std::string Execution::runStep(ExecutePlan::Context& context, const PlanStep& st
       }
       return "";
     }
-    if (context.stopRequested() || ros::Time::now() > deadline) {
+    if (context.stopRequested() || wait.over()) {
       code = ResultCode::FAILED;
-      return why;
+      return (context.stopRequested() ? "" : wait.cause()) + why;
     }
     // (In lockstep the clock's idle ticks bring new frames of the standing world: no physics time is asked for.
     // A call costs a fraction of a millisecond; a longer pause would be most of an experiment's idle time.)

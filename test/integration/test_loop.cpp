@@ -9,7 +9,9 @@
 #include <xmlrpcpp/XmlRpcClient.h>
 
 #include <algorithm>
+#include <optional>
 #include <csignal>
+#include <functional>
 #include <set>
 #include <thread>
 
@@ -17,6 +19,7 @@
 #include "test_helpers.h"
 #include "xpersif/ComponentEvent.h"
 #include "xpersif/ChooseFeatures.h"
+#include "xpersif/ExecutePlanAction.h"
 #include "xpersif/ExperimentRecord.h"
 #include "xpersif/GetCalls.h"
 #include "xpersif/GetExperiments.h"
@@ -57,6 +60,25 @@ int pidOf(const std::string& node) {
   if (!client.execute("getPid", request, response) || response.size() < 3) return -1;
   return static_cast<int>(response[2]);
 }
+
+/// A lockstep participant of the test's own that wants simulated time until @p done (the world keeps moving, as a
+/// user's controller makes it), on a thread joined however the test ends.
+class BusyParticipant {
+ public:
+  explicit BusyParticipant(std::function<bool()> done)
+      : thread_([done] {
+          try {
+            xpersif::LockstepClient participant(ros::NodeHandle(ns), ros::NodeHandle("~"), "loop_tester_busy", false);
+            participant.sleepFor(ros::Duration(1e6), done);
+          } catch (const std::exception& e) {
+            ADD_FAILURE() << "the test's participant could not take part: " << e.what();
+          }
+        }) {}
+  ~BusyParticipant() { thread_.join(); }
+
+ private:
+  std::thread thread_;
+};
 
 /// The arguments of a ground literal "p(a, (b, c), d)": {"a", "(b, c)", "d"}.
 std::vector<std::string> argumentsOf(const std::string& literal) {
@@ -118,12 +140,7 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   EXPECT_NE(client.getState().getText().find("valid_run"), std::string::npos) << client.getState().getText();
 
   client.sendGoal(goal);
-  struct Joined {  // joined however the test ends (the thread ends by itself within 20 s)
-    std::thread thread;
-    ~Joined() {
-      if (thread.joinable()) thread.join();
-    }
-  } busy;  // --kill: a participant that wants time while the world is put back
+  std::optional<BusyParticipant> busy;  // --kill: a participant that wants time while the world is put back
   if (kill_mid_run) {
     ASSERT_TRUE(waitFor([&] { return !records.messages().empty(); }, 300.0)) << "no experiment recorded";
     const int pid = pidOf(ns + "kb_manager");
@@ -132,15 +149,8 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
     // While LOOPMODEL waits for the knowledge base and then puts the world back for the experiment again, another
     // participant wants time (as a paused XPERSim or a slow controller makes one do): XPERSim refuses to restore a
     // moving world, and no frame comes until it stands; the loop must wait for that rather than end the run.
-    busy.thread = std::thread([] {
-      try {
-        xpersif::LockstepClient participant(ros::NodeHandle(ns), ros::NodeHandle("~"), "loop_tester_busy", false);
-        const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(20.0);
-        participant.sleepFor(ros::Duration(1e6), [&] { return ros::WallTime::now() > until; });
-      } catch (const std::exception& e) {
-        ADD_FAILURE() << "the test's participant could not take part: " << e.what();
-      }
-    });
+    const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(20.0);
+    busy.emplace([until] { return ros::WallTime::now() > until; });
   }
   ASSERT_TRUE(client.waitForResult(ros::Duration(600.0)));
   ASSERT_EQ(client.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << client.getState().getText();
@@ -285,6 +295,38 @@ TEST(Loop, AShortRunLearnsAndIsRecorded) {
   EXPECT_EQ(factOf(facts.response.facts, "selected", "vision"), selected);
 
   EXPECT_TRUE(waitFor([&] { return xpersif_test::allActive(ns, kComponents, &which); }, 60.0)) << which << " is not ACTIVE after the run";
+}
+
+// EXECUTION runs no command while it observes: in lockstep, simulated time that moves then is another participant's,
+// and no frame comes until the world stands. An observation step waits for that (the world moves for many times
+// ~fresh_timeout of simulated time here) rather than fail a step nobody did wrong.
+TEST(Loop, AnObservationStepWaitsWhileAnotherParticipantMovesTheWorld) {
+  if (kill_mid_run) GTEST_SKIP() << "loop.test covers it";
+  ASSERT_TRUE(waitFor([] { return ros::Time::now().toSec() > 0; }, 60.0));
+  actionlib::SimpleActionClient<xpersif::ExecutePlanAction> client(ns + "execution/execute_plan", true);
+  ASSERT_TRUE(client.waitForServer(ros::Duration(60.0)));
+  const double fresh_timeout = ros::param::param(ns + "execution/fresh_timeout", 5.0);  // s of simulated time
+  const ros::Time before = ros::Time::now();
+  const double moves = 3 * fresh_timeout;  // s of simulated time the participant moves the world for
+  xpersif::ExecutePlanGoal goal;
+  xpersif::PlanStep observe;
+  observe.component = "vision";
+  observe.operator_name = "get_features";
+  observe.interface_type = "xpersif/GetFeatures";
+  goal.steps = {observe};
+  goal.retries = 0;  // one attempt: a step that gives up fails the goal
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(120.0);
+  {
+    BusyParticipant busy([&] { return (ros::Time::now() - before).toSec() > moves || ros::WallTime::now() > give_up; });
+    ASSERT_TRUE(waitFor([&] { return (ros::Time::now() - before).toSec() > 2.0; }, 30.0)) << "the world does not move";
+    client.sendGoal(goal);  // VISION's latest vector is older than EXECUTION's ~max_age (1 s) now
+  }
+  ASSERT_GT((ros::Time::now() - before).toSec(), moves) << "the participant gave up before the world moved enough";
+  ASSERT_TRUE(client.waitForResult(ros::Duration(120.0)));
+  ASSERT_EQ(client.getState(), actionlib::SimpleClientGoalState::SUCCEEDED) << client.getState().getText();
+  ASSERT_EQ(client.getResult()->observations.size(), 1u);
+  EXPECT_GT(client.getResult()->observations[0].header.stamp.toSec(), before.toSec() + moves)
+      << "the observation is older than the world the participant left";
 }
 
 int main(int argc, char** argv) {

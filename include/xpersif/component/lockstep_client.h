@@ -65,6 +65,9 @@ class LockstepClient {
 
   /// Whether XPERSim runs in lockstep (read from its `clock_mode` parameter when this client was made).
   bool enabled() const { return enabled_; }
+  /// Whether the XPERSim a component of @p nh / @p private_nh would join runs in lockstep, without joining (for a
+  /// component that only needs to know, as EXECUTION does when it waits for a frame).
+  static bool runsInLockstep(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
   const std::string& name() const { return name_; }
 
   /// Join the clock. A sensor gets the current tick; an actor the tick whose ACT phase it first owes, marked
@@ -92,6 +95,8 @@ class LockstepClient {
   void onTickMessage(const LockstepTick::ConstPtr& message);
   /// The join call itself; @p lock held on return. Throws as join() does.
   Tick joinLocked(double timeout, std::unique_lock<std::mutex>& lock);
+  /// The resolved name of the XPERSim a component of @p nh / @p private_nh joins (~lockstep_xpersim).
+  static std::string xpersimOf(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
 
   ros::CallbackQueue tick_queue_;  // first: destroyed last
   ros::NodeHandle nh_;

@@ -12,8 +12,10 @@
  * INVALID, failed_step and a sentence naming the step and the parameter; nothing has moved.
  * A step whose invoke result carries feature vectors (an observation) must show the world after the plan's start
  * or its last command's end: it is repeated every 50 ms of wall time, for at most ~fresh_timeout seconds of ROS
- * time, until it does; the vectors go to the result's observations, in order. A step that reports robot_pose adds
- * it to robot_poses.
+ * time, until it does; the vectors go to the result's observations, in order. (In lockstep, simulated time that moves
+ * meanwhile is another participant's and no frame comes until the world stands: that wait does not count, and
+ * ~step_timeout of wall time bounds it; the sentence then names the moving world.) A step that reports robot_pose
+ * adds it to robot_poses.
  * A failed step is tried again up to goal.retries times, unless its code is INVALID (then the goal ends at once,
  * code INVALID). If it still fails and the goal names the literals the plan reaches (`goal.goal`, with `goal.state`
  * what held when it was planned), EXECUTION replans the rest with core::replan from the observed state (goal.state
@@ -115,6 +117,7 @@ class Execution : public Component {
   std::mutex mutex_;
   double max_age_ = 1.0;
   double fresh_timeout_ = 5.0;
+  bool lockstep_ = false;  // XPERSim runs in lockstep: simulated time that moves during an observation is another's
   double server_timeout_ = 10.0;
   double step_timeout_ = 300.0;
   int max_replans_ = 2;
