@@ -127,36 +127,32 @@ int LoopModel::tidyArena(const FeatureVector& scene, std::uint64_t stream) {
     return 0;
   }
   const std::vector<std::string> misplaced = misplacedObjects(*catalogue_, scene, hx, hy, spacing);
-  // A misplaced cube's old spot no longer counts as occupied.
-  std::vector<std::pair<double, double>> occupied;
-  for (const auto& o : scene.objects) {
-    if (std::find(misplaced.begin(), misplaced.end(), o.name) == misplaced.end()) occupied.emplace_back(o.position.x, o.position.y);
-  }
-  if (scene.robot_found) occupied.emplace_back(scene.robot.x, scene.robot.y);
+  core::ArenaTidy tidy(hx, hy, spacing);
+  for (const auto& o : scene.objects) tidy.stands(o.name, o.position.x, o.position.y);
+  if (scene.robot_found) tidy.stands("(the robot)", scene.robot.x, scene.robot.y);
   for (const auto& name : misplaced) {
-    std::uniform_real_distribution<double> ux(-hx, hx), uy(-hy, hy);
-    for (int attempt = 0; attempt < 200; ++attempt) {
-      const double x = ux(rng), y = uy(rng);
-      bool free = true;
-      for (const auto& [ox, oy] : occupied) free = free && std::hypot(x - ox, y - oy) > spacing;
-      if (!free) continue;
-      SetPose place;
-      place.request.name = name;
-      place.request.pose.position.x = x;
-      place.request.pose.position.y = y;
-      place.request.pose.orientation.w = 1.0;
-      place.request.on_floor = true;
-      const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
-      if (!why.empty()) {
-        ROS_WARN("%s: could not tidy %s away: %s", this->name().c_str(), name.c_str(), why.c_str());
-      } else {
-        events().publish(events().make(ComponentEvent::SUPERVISION, "tidy", "ok",
-                                       "put " + name + " back at (" + literalNumber(x) + ", " + literalNumber(y) + ")"));
-        occupied.emplace_back(x, y);
-        ++moved;
-      }
-      break;
+    const auto spot = tidy.spotFor(name, rng);
+    if (!spot) {
+      ROS_WARN_THROTTLE(60.0, "%s: cannot tidy %s: no spot in the arena is ~tidy_spacing %.3f m from every other "
+                        "object (a smaller ~tidy_spacing makes room)", this->name().c_str(), name.c_str(), spacing);
+      continue;
     }
+    const auto [x, y] = *spot;
+    SetPose place;
+    place.request.name = name;
+    place.request.pose.position.x = x;
+    place.request.pose.position.y = y;
+    place.request.pose.orientation.w = 1.0;
+    place.request.on_floor = true;
+    const std::string why = call(nodeHandle(), "xpersim/set_pose", place);
+    if (!why.empty()) {
+      ROS_WARN("%s: could not tidy %s away: %s", this->name().c_str(), name.c_str(), why.c_str());
+      continue;
+    }
+    events().publish(events().make(ComponentEvent::SUPERVISION, "tidy", "ok",
+                                   "put " + name + " back at (" + literalNumber(x) + ", " + literalNumber(y) + ")"));
+    tidy.stands(name, x, y);
+    ++moved;
   }
   return moved;
 }

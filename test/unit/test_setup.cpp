@@ -2,7 +2,9 @@
 // every shipped world (not only the default one).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <random>
 #include <string>
 
 #include "shipped_worlds.h"
@@ -104,4 +106,47 @@ TEST(SetupCatalogue, ASceneWithoutObjectsOrRobotIsRefused) {
   SceneDescription bad_name = scene;
   bad_name.objects.push_back("ghost");
   EXPECT_THROW(SetupCatalogue::fromScene(bad_name), ValidationError);
+}
+
+// LOOPMODEL's tidy (issue 38's generated_42843, oracle seed 5): two objects to be moved each still stand where they
+// are until moved; a spot is never beside either, and an arena with no room gives none rather than any.
+TEST(ArenaTidy, AnObjectNotYetMovedStillStandsWhereItIs) {
+  const double spacing = 0.19;
+  int placed = 0;  // spots found: the checks below must have run
+  for (std::uint64_t seed = 1; seed <= 50; ++seed) {
+    xpersif::core::ArenaTidy tidy(0.3, 0.14, spacing);
+    tidy.stands("orange_cube", -0.02, -0.01);
+    tidy.stands("magenta_block", 0.07, -0.11);
+    tidy.stands("cyan_bar", -0.24, 0.01);
+    tidy.stands("blue_block", -0.15, -0.14);
+    tidy.stands("(the robot)", 0.2, 0.1);
+    std::mt19937_64 rng(seed);
+    const auto orange = tidy.spotFor("orange_cube", rng);
+    if (orange) {
+      ++placed;
+      EXPECT_GT(std::hypot(orange->first + 0.24, orange->second - 0.01), spacing) << "beside cyan_bar, seed " << seed;
+      EXPECT_GT(std::hypot(orange->first - 0.2, orange->second - 0.1), spacing) << "on the robot, seed " << seed;
+      EXPECT_LE(std::abs(orange->first), 0.3);
+      EXPECT_LE(std::abs(orange->second), 0.14);
+      tidy.stands("orange_cube", orange->first, orange->second);
+    }
+    const auto cyan = tidy.spotFor("cyan_bar", rng);
+    if (cyan) {
+      ++placed;
+      const double ox = orange ? orange->first : -0.02, oy = orange ? orange->second : -0.01;
+      EXPECT_GT(std::hypot(cyan->first - ox, cyan->second - oy), spacing) << "beside orange_cube, seed " << seed;
+      EXPECT_GT(std::hypot(cyan->first + 0.15, cyan->second + 0.14), spacing) << "beside blue_block, seed " << seed;
+    }
+  }
+  EXPECT_GE(placed, 20) << "the arena had room for too few spots to check";
+}
+
+TEST(ArenaTidy, ItsOwnPlaceDoesNotCountAndAFullArenaGivesNoSpot) {
+  xpersif::core::ArenaTidy tidy(0.1, 0.1, 0.3);
+  tidy.stands("red_cube", 0.0, 0.0);
+  std::mt19937_64 rng(7);
+  EXPECT_TRUE(tidy.spotFor("red_cube", rng).has_value()) << "its own place kept red_cube from every spot";
+  EXPECT_FALSE(tidy.spotFor("blue_cube", rng).has_value()) << "a spot 0.3 m from red_cube inside ±0.1 m";
+  tidy.stands("red_cube", 5.0, 5.0);  // moved far away: its old place is free
+  EXPECT_TRUE(tidy.spotFor("blue_cube", rng).has_value());
 }

@@ -114,6 +114,30 @@ double SetupCatalogue::objectSpacing() const {
   return 2 * largest + 2 * robot_radius + 0.25 * robot_radius;
 }
 
+void ArenaTidy::stands(const std::string& name, double x, double y) {
+  for (auto& [who, where] : standing_) {
+    if (who == name) {
+      where = {x, y};
+      return;
+    }
+  }
+  standing_.push_back({name, {x, y}});
+}
+
+std::optional<std::pair<double, double>> ArenaTidy::spotFor(const std::string& name, std::mt19937_64& rng,
+                                                            int draws) const {
+  std::uniform_real_distribution<double> ux(-hx_, hx_), uy(-hy_, hy_);
+  for (int attempt = 0; attempt < draws; ++attempt) {
+    const double x = ux(rng), y = uy(rng);
+    bool free = true;
+    for (const auto& [who, where] : standing_) {
+      free = free && (who == name || std::hypot(x - where.first, y - where.second) > spacing_);
+    }
+    if (free) return std::make_pair(x, y);
+  }
+  return std::nullopt;
+}
+
 std::string SetupCatalogue::checkExperiment(const std::string& field, const Experiment& e) const {
   const CatalogueObject* object = find(e.object);
   if (!object) {

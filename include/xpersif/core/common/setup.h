@@ -7,7 +7,10 @@
  */
 #pragma once
 
+#include <optional>
+#include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "xpersif/core/common/experiment.h"
@@ -62,6 +65,24 @@ struct SetupCatalogue {
   /// "" when @p experiment pushes a catalogue object on a known side, with |offset| <= maxPushOffset and the
   /// distance in [minPushDistance, maxPushDistance]; else a sentence naming @p field and the bound.
   std::string checkExperiment(const std::string& field, const Experiment& experiment) const;
+};
+
+/// Where LOOPMODEL's tidy may put objects back, as an experimenter would: a spot within ±hx, ±hy of the arena's
+/// centre, farther than `spacing` from everything that stands in the arena. An object not yet moved still stands
+/// where it is, even when it is to be moved next (two misplaced objects once were each put beside the other's old
+/// spot, and pushing either was refused from then on). ROS-free bookkeeping; the caller moves the bodies.
+class ArenaTidy {
+ public:
+  ArenaTidy(double hx, double hy, double spacing) : hx_(hx), hy_(hy), spacing_(spacing) {}
+  /// @p name (an object, or the robot) stands at (@p x, @p y); again for the same name: it was moved there.
+  void stands(const std::string& name, double x, double y);
+  /// A free spot for @p name (its own place does not count) among @p draws uniform draws from @p rng, or nothing
+  /// when none is free: an arena too small for the spacing and the objects in it.
+  std::optional<std::pair<double, double>> spotFor(const std::string& name, std::mt19937_64& rng, int draws = 200) const;
+
+ private:
+  double hx_, hy_, spacing_;
+  std::vector<std::pair<std::string, std::pair<double, double>>> standing_;  // in the order first heard
 };
 
 }  // namespace xpersif::core
