@@ -298,8 +298,15 @@ void Supervisor::stopMonitor() {
 }
 
 bool Supervisor::wentWithItsManager(const SupervisedComponent& component) const {
-  if (managerAnswers(component.manager)) return false;
-  ROS_WARN_STREAM(name() << ": manager " << component.manager << " is gone; " << component.name << " went with it");
+  if (!managerAnswers(component.manager)) {
+    ROS_WARN_STREAM(name() << ": manager " << component.manager << " is gone; " << component.name << " went with it");
+    return true;
+  }
+  // A respawned manager answers without it (a crash battery's take: asking a lost ACTIVE component to deactivate
+  // waited ~startup_timeout for a service that never came, once per component, and the caller gave up).
+  if (loadedIn(component)) return false;
+  ROS_WARN_STREAM(name() << ": " << component.name << " is not loaded in " << component.manager
+                         << " (the manager was restarted without it); nothing to ask it");
   return true;
 }
 
@@ -350,13 +357,27 @@ bool Supervisor::unload(const SupervisedComponent& component, std::string* why) 
   return true;
 }
 
+void Supervisor::waitForTransitionService(const SupervisedComponent& component, const std::string& service) const {
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(startup_timeout_);
+  // In slices, so that a manager that came back without the component ends the wait at once.
+  for (;;) {
+    const double left = (until - ros::WallTime::now()).toSec();
+    if (ros::service::waitForService(service, ros::Duration(std::clamp(left, 0.01, 1.0)))) return;
+    if (managerAnswers(component.manager) && !loadedIn(component)) {
+      throw std::runtime_error(component.name + " is not loaded in " + component.manager +
+                               " (the manager was restarted without it); no " + service + " to ask");
+    }
+    if (left <= 1.0 || !ros::ok()) {
+      throw std::runtime_error(component.name + " offers no " + service + " service within " +
+                               core::describeNumber(startup_timeout_) + " s");
+    }
+  }
+}
+
 void Supervisor::requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const {
   const std::string service = component.name + "/" + toString(transition);
   if (!ros::ok()) throw std::runtime_error(service + " not asked: this process is shutting down");
-  if (!ros::service::waitForService(service, ros::Duration(startup_timeout_))) {
-    throw std::runtime_error(component.name + " offers no " + service + " service within " +
-                             core::describeNumber(startup_timeout_) + " s");
-  }
+  waitForTransitionService(component, service);
   // A call that fails in transport (no answer: a manager just respawned, a loaded machine) is asked again until
   // ~startup_timeout has passed: one such failure during a restart made a crash-battery take's whole run abort.
   // Asking again is safe: a transition already reached is accepted below.

@@ -85,6 +85,7 @@ class InProcessSupervisor : public xpersif::Supervisor {
     start();
   }
   ~InProcessSupervisor() override { halt(); }
+  using Supervisor::lastKnownState;
   using Supervisor::waitUntilUp;
 };
 
@@ -271,6 +272,38 @@ TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerI
   ASSERT_TRUE(ros::param::get("/counter/limit", limit));
   EXPECT_DOUBLE_EQ(limit, 50.0);
   EXPECT_NE(pidOf("/worker_manager"), pid);
+}
+
+// A manager that died and came back without its component (roslaunch's respawn) while the supervisor was ACTIVE:
+// deactivating the supervisor must not wait ~startup_timeout for services that will never come (a crash-battery take:
+// ROBOTMODEL's deactivate waited 30 s for OBSERVATION's, and the next components', and LOOPMODEL gave up after 60 s).
+TEST_F(Supervision, ADeactivateDoesNotWaitForAComponentItsRespawnedManagerNoLongerHolds) {
+  ros::param::set("/respawned_supervisor/restart", false);  // the monitor must not reload it first
+  pid_t manager = startManager("respawned_manager");
+  ASSERT_GT(manager, 0);
+  InProcessSupervisor supervisor("/respawned_supervisor", "respawned_counter", "xpersif/ExampleCounterNodelet",
+                                 "respawned_manager", 60.0);
+  ASSERT_TRUE(supervisor.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(supervisor.transition(xpersif::LifecycleTransition::Activate).success);
+  ASSERT_EQ(supervisor.waitUntilUp(90.0, {}), "");
+  ASSERT_EQ(supervisor.lastKnownState("/respawned_counter"), xpersif::LifecycleState::Active);
+
+  ASSERT_EQ(kill(manager, SIGKILL), 0);
+  waitpid(manager, nullptr, 0);
+  manager = startManager("respawned_manager");
+  ASSERT_GT(manager, 0);
+  ASSERT_TRUE(waitFor([] { return ros::service::exists("/respawned_manager/list", false); }, 60.0));
+
+  const ros::WallTime began = ros::WallTime::now();
+  EXPECT_TRUE(supervisor.transition(xpersif::LifecycleTransition::Deactivate).success);
+  EXPECT_LT((ros::WallTime::now() - began).toSec(), 30.0) << "not ~startup_timeout (60 s) for a service never to come";
+
+  // Activating again loads it into the new manager.
+  ASSERT_TRUE(supervisor.transition(xpersif::LifecycleTransition::Activate).success);
+  EXPECT_EQ(supervisor.waitUntilUp(90.0, {}), "");
+  EXPECT_EQ(stateOf("/respawned_counter"), ComponentStatus::ACTIVE);
+  kill(manager, SIGINT);
+  waitpid(manager, nullptr, 0);
 }
 
 TEST_F(Supervision, ShutdownExitsAndUnloadsTheComponents) {

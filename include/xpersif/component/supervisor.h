@@ -87,6 +87,9 @@ class Supervisor : public Component {
 
   /// Call a supervised component's lifecycle service; throws std::runtime_error with the reason on failure.
   void requestTransition(const SupervisedComponent& component, LifecycleTransition transition) const;
+  /// Wait up to ~startup_timeout for one of @p component's lifecycle services; throws at once when its manager
+  /// answers without it (respawned), and after ~startup_timeout otherwise.
+  void waitForTransitionService(const SupervisedComponent& component, const std::string& service) const;
   /// Load a component into its manager (unless it is already loaded there) and set its parameters.
   void load(const SupervisedComponent& component) const;
   /// Whether its manager lists it as loaded (false when the manager does not answer).
@@ -128,8 +131,8 @@ class Supervisor : public Component {
   void monitorLoop();
   void stopMonitor();
   bool managerAnswers(const std::string& manager) const;
-  /// True (and said in the log) when @p component's manager is gone, and the component with it: nothing to ask it,
-  /// and no ~startup_timeout to wait for its services (deactivate, shutdown).
+  /// True (and said in the log) when @p component's manager is gone, or answers without it (respawned): nothing to
+  /// ask it, and no ~startup_timeout to wait for its services (deactivate, shutdown).
   bool wentWithItsManager(const SupervisedComponent& component) const;
   void supervisionEvent(const std::string& name, const std::string& outcome, const std::string& reason);
   enum class BringUp { Idle, Running, Done, Failed };
