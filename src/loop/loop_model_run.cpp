@@ -196,6 +196,8 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   if (Ending end = sceneForStep(run, run.done, scene)) return end;
   NextExperiment next;
   if (Ending end = chooseExperiment(run, scene, next)) return end;
+  // A loss noticed before the design was made may mean the scene it read was a restarted simulator's world file.
+  const bool designed_before_any_loss = losses_ == losses_before;
   ExperimentRecord record;
   record.run_id = run.result.run_id;  // MACHINELEARNING predicts with this run's model only
   StageFailure failure;
@@ -207,7 +209,7 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   std::string end_why, end_state = checkpointWorld(&end_why);
   const bool replaced = !lineage.empty() && end_why.empty() && world_lineage_ != lineage;
   if ((lostDuring(losses_before, record) || replaced) && !run.step_state.empty()) {
-    return redoExperiment(run, next, record, replaced);
+    return redoExperiment(run, next, record, replaced, designed_before_any_loss);
   }
   if (Ending end = storeExperiment(run, record, end_why, end_state)) return end;
   countExperiment(run, next.experiment, record);
@@ -285,7 +287,7 @@ LoopModel::Ending LoopModel::chooseExperiment(RunState& run, const FeatureVector
 }
 
 LoopModel::Ending LoopModel::redoExperiment(RunState& run, const NextExperiment& next, const ExperimentRecord& record,
-                                            bool replaced) {
+                                            bool replaced, bool designed_before_any_loss) {
   // What the experiment did is not what an uninterrupted run would have done. It is not stored; once every
   // component is back, the world goes back to the step's state and the same experiment is done again.
   ROS_WARN("%s: a component was lost during experiment %u (%s%s); doing it again from the world as it was",
@@ -293,7 +295,15 @@ LoopModel::Ending LoopModel::redoExperiment(RunState& run, const NextExperiment&
            replaced ? "; the simulator's world is another one now" : "");
   const std::string why = returnTo(run.context, run.result.run_id, run.step_state);
   if (!why.empty()) return ended(run, "cannot do experiment " + std::to_string(run.done + 1) + " again: " + why);
-  run.again = next;
+  // A design made after a loss may have read the restarted simulator's world file (a crash-battery take designed
+  // blue_block -y where the uninterrupted run designed purple_cube -y): it is made again from the restored world,
+  // whose frames come once the clock has passed the restore (restoreCheckpoint). A queued hand experiment stays.
+  if (designed_before_any_loss || next.design == "hand") {
+    run.again = next;
+  } else {
+    ROS_WARN("%s: experiment %u was designed after a component was lost; it is designed again from the world as it "
+             "was", name().c_str(), run.done + 1);
+  }
   return std::nullopt;
 }
 

@@ -37,9 +37,8 @@ struct LoopModel::RunState {
   core::FailureStreak streak;  ///< consecutive experiments failing for one cause (~max_same_failures)
   std::string step_state;      ///< the world state at the start of the current step
   std::string next_state;      ///< the world at the end of the last step, stored already as the next one's start
-  /// The experiment of a step being done again (a component was lost during it): the one chosen before, not a
-  /// new design, which could differ (a design reads the scene, and a restarted simulator's first frames show
-  /// its world file until the step's state is back).
+  /// The experiment of a step being done again (a component was lost during it): the one chosen before, unless it
+  /// was designed after a loss (LoopModel::redoExperiment), when the scene it read may have been another world.
   std::optional<NextExperiment> again;
 };
 

@@ -125,7 +125,8 @@ class LoopModel : public Supervisor {
   /// The hand-chosen experiment queued first, else DESIGNOFEXPERIMENTS's.
   Ending chooseExperiment(RunState& run, const FeatureVector& scene, NextExperiment& next);
   /// Back to the step's world state once the lost components are back, to do the experiment again.
-  Ending redoExperiment(RunState& run, const NextExperiment& next, const ExperimentRecord& record, bool replaced);
+  Ending redoExperiment(RunState& run, const NextExperiment& next, const ExperimentRecord& record, bool replaced,
+                        bool designed_before_any_loss);
   /// The world state after the experiment (the next step's start), then the experiment, in the knowledge base.
   Ending storeExperiment(RunState& run, const ExperimentRecord& record, const std::string& end_why,
                          const std::string& end_state);
