@@ -194,8 +194,7 @@ void Supervisor::onActivate() {
         } catch (const std::exception& e) {
           // Its manager died while it was being started (a crash battery's kill; a crash the transition itself
           // caused): once the respawned manager answers without it, it is started again, from loading.
-          if (attempt < kBringUpAttempts && monitoring_ && restart_ && managerAnswers(component.manager) &&
-              !loadedIn(component)) {
+          if (attempt < kBringUpAttempts && monitoring_ && restart_ && respawnedWithout(component)) {
             ROS_WARN_STREAM(name() << ": " << component.name << " went with its manager while it was being started ("
                                    << e.what() << "); starting it again");
             continue;
@@ -304,7 +303,7 @@ bool Supervisor::wentWithItsManager(const SupervisedComponent& component) const 
   }
   // A respawned manager answers without it (a crash battery's take: asking a lost ACTIVE component to deactivate
   // waited ~startup_timeout for a service that never came, once per component, and the caller gave up).
-  if (loadedIn(component)) return false;
+  if (loadedIn(component)) return false;  // (its manager answers: checked above)
   ROS_WARN_STREAM(name() << ": " << component.name << " is not loaded in " << component.manager
                          << " (the manager was restarted without it); nothing to ask it");
   return true;
@@ -336,6 +335,10 @@ void Supervisor::load(const SupervisedComponent& component) const {
   }
 }
 
+bool Supervisor::respawnedWithout(const SupervisedComponent& component) const {
+  return managerAnswers(component.manager) && !loadedIn(component);
+}
+
 bool Supervisor::loadedIn(const SupervisedComponent& component) const {
   nodelet::NodeletList list;
   if (!ros::service::call(component.manager + "/list", list)) return false;
@@ -363,7 +366,7 @@ void Supervisor::waitForTransitionService(const SupervisedComponent& component, 
   for (;;) {
     const double left = (until - ros::WallTime::now()).toSec();
     if (ros::service::waitForService(service, ros::Duration(std::clamp(left, 0.01, 1.0)))) return;
-    if (managerAnswers(component.manager) && !loadedIn(component)) {
+    if (respawnedWithout(component)) {
       throw std::runtime_error(component.name + " is not loaded in " + component.manager +
                                " (the manager was restarted without it); no " + service + " to ask");
     }
@@ -396,7 +399,7 @@ void Supervisor::requestTransition(const SupervisedComponent& component, Lifecyc
       throw std::runtime_error(component.name + " did not answer its " + toString(transition) + " within " +
                                core::describeNumber(startup_timeout_) + " s (the transition is still running or stuck)");
     }
-    if (managerAnswers(component.manager) && !loadedIn(component)) {  // a respawned manager, without it
+    if (respawnedWithout(component)) {
       throw std::runtime_error(component.name + " is no longer loaded in " + component.manager +
                                " (the manager was restarted)");
     }

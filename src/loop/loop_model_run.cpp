@@ -295,9 +295,9 @@ LoopModel::Ending LoopModel::redoExperiment(RunState& run, const NextExperiment&
            replaced ? "; the simulator's world is another one now" : "");
   const std::string why = returnTo(run.context, run.result.run_id, run.step_state);
   if (!why.empty()) return ended(run, "cannot do experiment " + std::to_string(run.done + 1) + " again: " + why);
-  // A design made after a loss may have read the restarted simulator's world file (a crash-battery take designed
-  // blue_block -y where the uninterrupted run designed purple_cube -y): it is made again from the restored world,
-  // whose frames come once the clock has passed the restore (restoreCheckpoint). A queued hand experiment stays.
+  // A design made after a loss may have read the restarted simulator's world file (doc/lockstep.md): it is made
+  // again from the restored world, whose frames come once the clock has passed the restore (restoreCheckpoint).
+  // A queued hand experiment stays.
   if (designed_before_any_loss || next.design == "hand") {
     run.again = next;
   } else {

@@ -94,6 +94,8 @@ class Supervisor : public Component {
   void load(const SupervisedComponent& component) const;
   /// Whether its manager lists it as loaded (false when the manager does not answer).
   bool loadedIn(const SupervisedComponent& component) const;
+  /// Whether @p component's manager answers without it (the manager was restarted, and the component not yet loaded).
+  bool respawnedWithout(const SupervisedComponent& component) const;
   /// Unload a component from its manager; returns false (and says why) if that did not work.
   bool unload(const SupervisedComponent& component, std::string* why) const;
   /// Load, configure and (if asked) activate one component, waiting for it to answer.
