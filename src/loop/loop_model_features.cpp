@@ -16,6 +16,7 @@
 #include "xpersif/SelectFeatures.h"
 #include "xpersif/UseFeatures.h"
 #include "xpersif/core/common/random_stream.h"
+#include "xpersif/ros/algorithm_loader.h"
 #include "service_call.h"
 
 namespace xpersif {
@@ -56,18 +57,23 @@ std::string LoopModel::waitForSelection(const std::vector<std::string>& selectio
     features.request.max_age = 0.0;
     why = call(nodeHandle(), "vision/get_features", features);
     if (why.empty()) {
-      const auto& objects = features.response.features.objects;
-      const bool carried = !objects.empty() && std::all_of(objects.begin(), objects.end(), [&](const ObjectFeatures& o) {
-        return o.feature_names == selection;
-      });
-      if (carried) return "";
-      why = "its vectors do not carry the selection yet";
+      const FeatureVector& vector = features.response.features;
+      const auto lacking = std::find_if(vector.objects.begin(), vector.objects.end(),
+                                        [&](const ObjectFeatures& o) { return o.feature_names != selection; });
+      if (!vector.objects.empty() && lacking == vector.objects.end()) return "";
+      // What VISION has instead: a stale vector (no new frames) reads differently from a fresh one without it.
+      why = "its latest vector (image " + std::to_string(vector.header.seq) + ", t = " +
+            core::describeNumber(vector.header.stamp.toSec()) + " s) " +
+            (vector.objects.empty() ? "has no objects (" + std::to_string(vector.missing.size()) + " missing)"
+                                    : "carries [" + joinWithCommas(lacking->feature_names) + "] for " + lacking->name) +
+            ", not the selection [" + joinWithCommas(selection) + "]";
     }
     if (ros::WallTime::now() > deadline) break;
     // (In lockstep the clock's idle ticks bring new frames of the standing world.)
     ros::WallDuration(0.02).sleep();
   }
-  return "VISION did not take up the selection within 20 s: " + why;
+  return "VISION did not take up the selection within 20 s (the clock at t = " +
+         core::describeNumber(ros::Time::now().toSec()) + " s): " + why;
 }
 
 namespace {

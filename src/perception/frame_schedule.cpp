@@ -62,9 +62,9 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
     if (camera->tracker().waitForStamp(t.stamp, patience)) {
       published = render_(t.stamp);
     } else {
-      ROS_WARN("tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
-               "experiment from here on unless the world stands)", static_cast<unsigned long long>(t.tick),
-               t.stamp.toSec(), patience);
+      ROS_WARN("%s: tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "
+               "experiment from here on unless the world stands)", client.name().c_str(),
+               static_cast<unsigned long long>(t.tick), t.stamp.toSec(), patience);
     }
   }
   if (!t.idle) {
