@@ -46,7 +46,8 @@ CallOutcome callWithin(const std::string& service, Transition& call, double seco
 // ERROR or LOST; null if none. For a supervised supervisor, its own components still starting.
 const PartStatus* firstPartNotUp(const ComponentStatus& status) {
   for (const auto& part : status.parts) {
-    if (part.state_name == "LOST" || part.state == ComponentStatus::UNCONFIGURED || part.state == ComponentStatus::ERROR) {
+    if (part.state_name == "LOST" || part.state_name == "STARTING" || part.state == ComponentStatus::UNCONFIGURED ||
+        part.state == ComponentStatus::ERROR) {
       return &part;
     }
   }
@@ -178,13 +179,22 @@ void Supervisor::onActivate() {
   // Bring-up runs in the supervisor's own thread, never in a manager's callback thread: the components
   // may live in the supervisor's own manager and need its threads to answer the calls.
   monitoring_ = true;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bring_up_index_ = 0;
+  }
   setBringUp(BringUp::Running, "");
   monitor_thread_ = std::thread([this] {
     const ros::WallTime began = ros::WallTime::now();
-    for (const auto& component : components_) {
+    for (std::size_t index = 0; index < components_.size(); ++index) {
+      const SupervisedComponent& component = components_[index];
       if (!monitoring_) {
         setBringUp(BringUp::Failed, "supervision stopped while " + component.name + " was still to start");
         return;
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        bring_up_index_ = index;
       }
       setBringUp(BringUp::Running, component.name);
       for (int attempt = 1;; ++attempt) {
@@ -303,7 +313,7 @@ bool Supervisor::wentWithItsManager(const SupervisedComponent& component) const 
   }
   // A respawned manager answers without it (a crash battery's take: asking a lost ACTIVE component to deactivate
   // waited ~startup_timeout for a service that never came, once per component, and the caller gave up).
-  if (loadedIn(component)) return false;  // (its manager answers: checked above)
+  if (loadedIn(component) != false) return false;  // (its manager answers: checked above)
   ROS_WARN_STREAM(name() << ": " << component.name << " is not loaded in " << component.manager
                          << " (the manager was restarted without it); nothing to ask it");
   return true;
@@ -325,25 +335,34 @@ void Supervisor::load(const SupervisedComponent& component) const {
       ros::param::set(component.name + "/" + it->first, it->second);
     }
   }
-  if (loadedIn(component)) return;
+  if (loadedIn(component) == true) return;
   nodelet::NodeletLoad load;
   load.request.name = component.name;
   load.request.type = component.type;
   if (!ros::service::call(component.manager + "/load_nodelet", load) || !load.response.success) {
+    // Refused because one of that name exists: the list before did not show it (a crash battery's take lost ROBOTMODEL's
+    // whole re-bring-up to this). It is loaded; configure and activate follow.
+    if (loadedIn(component) == true) return;
     throw std::runtime_error("manager " + component.manager + " could not load " + component.type + " as " +
                              component.name + " (is the type in a nodelet_plugins.xml? see the manager's log)");
   }
 }
 
 bool Supervisor::respawnedWithout(const SupervisedComponent& component) const {
-  return managerAnswers(component.manager) && !loadedIn(component);
+  return managerAnswers(component.manager) && loadedIn(component) == false;
 }
 
-bool Supervisor::loadedIn(const SupervisedComponent& component) const {
-  nodelet::NodeletList list;
-  if (!ros::service::call(component.manager + "/list", list)) return false;
-  const auto& loaded = list.response.nodelets;
-  return std::find(loaded.begin(), loaded.end(), component.name) != loaded.end();
+std::optional<bool> Supervisor::loadedIn(const SupervisedComponent& component) const {
+  // roscpp's non-persistent calls fail now and then in transport (ros/ros_comm#1976): asked again.
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    nodelet::NodeletList list;
+    if (ros::service::call(component.manager + "/list", list)) {
+      const auto& loaded = list.response.nodelets;
+      return std::find(loaded.begin(), loaded.end(), component.name) != loaded.end();
+    }
+    if (attempt < 3 && ros::ok()) ros::WallDuration(0.1).sleep();
+  }
+  return std::nullopt;
 }
 
 bool Supervisor::unload(const SupervisedComponent& component, std::string* why) const {
@@ -557,7 +576,8 @@ void Supervisor::supervisionEvent(const std::string& component, const std::strin
 
 void Supervisor::fillStatus(ComponentStatus& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const auto& component : components_) {
+  for (std::size_t index = 0; index < components_.size(); ++index) {
+    const SupervisedComponent& component = components_[index];
     PartStatus part;
     part.name = component.name;
     auto it = observed_.find(component.name);
@@ -567,6 +587,11 @@ void Supervisor::fillStatus(ComponentStatus& status) {
       part.message = it->second.message;
     }
     part.state_name = it != observed_.end() && it->second.lost ? "LOST" : toString(static_cast<LifecycleState>(part.state));
+    // A bring-up again (this supervisor reconfigured) finds its components ACTIVE or INACTIVE from before: until it
+    // has passed them they are not up, whatever their state says (a run resumed into ROBOTMODEL's re-bring-up once).
+    const bool still_to_start = bring_up_ == BringUp::Running && index >= bring_up_index_;
+    const bool looks_up = part.state == ComponentStatus::INACTIVE || part.state == ComponentStatus::ACTIVE;
+    if (still_to_start && looks_up && part.state_name != "LOST") part.state_name = "STARTING";
     if (part.health != ComponentStatus::HEALTH_OK && status.health == ComponentStatus::HEALTH_OK) {
       status.health = ComponentStatus::HEALTH_WARN;
     }

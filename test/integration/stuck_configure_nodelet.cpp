@@ -1,8 +1,10 @@
 // Test-only component whose configure never answers (it waits until its process shuts down): a supervisor that
 // brings it up must give up after ~startup_timeout and say so, not wait for good (seen in a live system: RELOCATION's
-// configure blocked on a service whose queue was pinned to the same thread).
+// configure blocked on a service whose queue was pinned to the same thread). With ~configure_seconds it is only slow.
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
+
+#include <algorithm>
 
 #include "xpersif/component/component.h"
 #include "xpersif/component/shells.h"
@@ -16,7 +18,11 @@ class StuckConfigure : public xpersif::Component {
 
  protected:
   void onConfigure() override {
-    while (ros::ok() && !halting()) ros::WallDuration(0.1).sleep();
+    // ~configure_seconds: a configure that is only slow (a camera waiting for its first tf); none: it never answers.
+    double seconds = -1.0;
+    privateNodeHandle().param("configure_seconds", seconds, seconds);
+    const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(std::max(seconds, 0.0));
+    while (ros::ok() && !halting() && (seconds < 0 || ros::WallTime::now() < until)) ros::WallDuration(0.1).sleep();
   }
 };
 

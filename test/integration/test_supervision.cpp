@@ -227,6 +227,50 @@ TEST_F(Supervision, AStuckConfigureFailsTheBringUpAndANestedBringUpIsWaitedFor) 
       << why;
 }
 
+// A supervisor brought up again (LOOPMODEL restarted reconfigures ROBOTMODEL) finds its components ACTIVE or INACTIVE
+// from before. Until its bring-up has passed them they are not up, and one supervising it must not call it up: a crash
+// battery's take resumed its run 2 s into ROBOTMODEL's re-bring-up, and every push failed on an INACTIVE MANIPULATION.
+TEST_F(Supervision, ASupervisorBroughtUpAgainIsNotUpUntilItsBringUpHasPassedEachComponent) {
+  const auto set_inner_components = [](double configure_seconds) {
+    XmlRpc::XmlRpcValue components;
+    components[0]["name"] = "slow_again";
+    components[0]["type"] = "xpersif_test/StuckConfigureNodelet";
+    components[0]["manager"] = "loop_manager";  // (stuck_manager's threads are held by the stuck configures)
+    components[0]["params"]["configure_seconds"] = configure_seconds;
+    components[1]["name"] = "counter_again";
+    components[1]["type"] = "xpersif/ExampleCounterNodelet";
+    components[1]["manager"] = "loop_manager";
+    ros::param::set("/again_inner/components", components);
+    ros::param::set("/again_inner/startup_timeout", 20.0);
+  };
+  set_inner_components(0.0);
+  InProcessSupervisor outer("/again_outer", "again_inner", "xpersif/SupervisorNodelet", "loop_manager", 20.0);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Activate).success);
+  ASSERT_EQ(outer.waitUntilUp(60.0, {}), "");
+
+  // Again, with a first component whose configure now takes 4 s: the second waits, INACTIVE from the deactivate.
+  Recorder<ComponentStatus> inner_status(nh_, "/again_inner/status");
+  ASSERT_TRUE(inner_status.waitForConnection(5.0));
+  set_inner_components(4.0);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Deactivate).success);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Configure).success);
+  ASSERT_TRUE(outer.transition(xpersif::LifecycleTransition::Activate).success);
+  ComponentStatus starting;
+  ASSERT_TRUE(inner_status.waitForMatch(
+      [](const ComponentStatus& s) {
+        return s.state == ComponentStatus::ACTIVE && s.parts.size() == 2 && s.parts[0].state == ComponentStatus::INACTIVE;
+      },
+      3.0, &starting));
+  EXPECT_EQ(starting.parts[1].state_name, "STARTING") << "its state: " << static_cast<int>(starting.parts[1].state);
+  ros::WallDuration(0.5).sleep();  // the outer supervisor hears the same statuses
+  const std::string why = outer.waitUntilUp(0.5, {});
+  EXPECT_NE(why.find("/again_inner's /slow_again (STARTING)"), std::string::npos) << why;
+
+  EXPECT_EQ(outer.waitUntilUp(60.0, {}), "") << "up once the bring-up has passed both";
+  EXPECT_EQ(stateOf("/counter_again"), ComponentStatus::ACTIVE);
+}
+
 TEST_F(Supervision, NoticesAKilledManagerAndRestartsItsComponentsWhenTheManagerIsBack) {
   Recorder<ComponentStatus> status(nh_, "/supervisor/status");
   Recorder<ComponentEvent> events(nh_, "/supervisor/events");

@@ -32,6 +32,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -92,8 +93,9 @@ class Supervisor : public Component {
   void waitForTransitionService(const SupervisedComponent& component, const std::string& service) const;
   /// Load a component into its manager (unless it is already loaded there) and set its parameters.
   void load(const SupervisedComponent& component) const;
-  /// Whether its manager lists it as loaded (false when the manager does not answer).
-  bool loadedIn(const SupervisedComponent& component) const;
+  /// Whether its manager lists it as loaded; nullopt when the manager's list does not answer (asked three times):
+  /// an unanswered list is no evidence that the component is gone.
+  std::optional<bool> loadedIn(const SupervisedComponent& component) const;
   /// Whether @p component's manager answers without it (the manager was restarted, and the component not yet loaded).
   bool respawnedWithout(const SupervisedComponent& component) const;
   /// Unload a component from its manager; returns false (and says why) if that did not work.
@@ -124,7 +126,7 @@ class Supervisor : public Component {
     bool failed = false;  ///< it is in ERROR: waiting longer will not help
   };
   /// Whether every supervised component is up as its last status says (not UNCONFIGURED, ERROR or lost, and none of
-  /// its parts so: a supervised supervisor's own bring-up counts). Under mutex_.
+  /// its parts so, nor STARTING: a supervised supervisor's own bring-up counts, a second one too). Under mutex_.
   NotUp notUpLocked() const;
 
   static std::vector<SupervisedComponent> parseComponents(const XmlRpc::XmlRpcValue& list, const ros::NodeHandle& nh);
@@ -155,6 +157,7 @@ class Supervisor : public Component {
   std::atomic<bool> monitoring_{false};
   BringUp bring_up_ = BringUp::Idle;  // guarded by mutex_, like bring_up_note_
   std::string bring_up_note_;          // the component being brought up, or why the bring-up failed or stopped
+  std::size_t bring_up_index_ = 0;     // while Running: components_ from this index on are not (again) up yet
   mutable std::condition_variable bring_up_changed_;
 };
 
