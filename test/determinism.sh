@@ -35,7 +35,8 @@ fi
 world=${1:-$repo/worlds/default.yaml}
 design=${2:-curiosity}
 stop_after=3
-campaign=(campaign --experiments 6 --goals 1 --design "$design" --seed 11)
+experiments=6
+campaign=(campaign --experiments "$experiments" --goals 1 --design "$design" --seed 11)
 work=$(mktemp -d)
 launch=0
 cleanup() {
@@ -121,6 +122,23 @@ for k in moments:
     choices = managers if k < 6 else [m for m in managers if m != "loop_manager"]
     print(k, "%.2f" % rng.uniform(0.0, 1.5), "kill:" + rng.choice(choices))
 PLAN
+}
+
+pause_before() {  # pause_before SECONDS MANAGERS: the battery's wait before a kill
+  if [[ "$2" != *loop_manager* ]]; then
+    sleep "$1"
+    return
+  fi
+  # LOOPMODEL lost after a goal push is stored is a known gap (doc/console.md): the battery kills its manager
+  # before the goal phase (battery_plan), yet on a fast machine the seconds after the K-th experiment can hold
+  # three more (a take of crash3 killed it after 7 stored, 1 in 12 here). So the wait ends with the last experiment.
+  local end now
+  end=$(awk -v d="$1" -v now="$(date +%s%N)" 'BEGIN { printf "%d", now + d * 1e9 }')
+  now=$(date +%s%N)
+  while [ "$now" -lt "$end" ] && [ "$(stored "$db")" -lt "$experiments" ]; do
+    sleep 0.05
+    now=$(date +%s%N)
+  done
 }
 
 take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [STOP_AFTER]]
@@ -228,7 +246,7 @@ take() {  # take NAME [resume|kill:MANAGERS|stop:MANAGERS|battery:SEED|system [S
         while read -r k d spec; do
           until [ "$(stored "$db")" -ge "$k" ] || ! kill -0 "$runner" 2>/dev/null; do sleep 0.1; done
           kill -0 "$runner" 2>/dev/null || break
-          sleep "$d"
+          pause_before "$d" "${spec#kill:}"
           interrupt "$name" "$spec"
         done < <(battery_plan "${interrupt#battery:}")
       else
