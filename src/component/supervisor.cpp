@@ -179,11 +179,7 @@ void Supervisor::onActivate() {
   // Bring-up runs in the supervisor's own thread, never in a manager's callback thread: the components
   // may live in the supervisor's own manager and need its threads to answer the calls.
   monitoring_ = true;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    bring_up_index_ = 0;
-  }
-  setBringUp(BringUp::Running, "");
+  setBringUp(BringUp::Running, "", 0);
   monitor_thread_ = std::thread([this] {
     const ros::WallTime began = ros::WallTime::now();
     for (std::size_t index = 0; index < components_.size(); ++index) {
@@ -192,11 +188,7 @@ void Supervisor::onActivate() {
         setBringUp(BringUp::Failed, "supervision stopped while " + component.name + " was still to start");
         return;
       }
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        bring_up_index_ = index;
-      }
-      setBringUp(BringUp::Running, component.name);
+      setBringUp(BringUp::Running, component.name, index);
       for (int attempt = 1;; ++attempt) {
         try {
           bringUp(component);
@@ -224,11 +216,12 @@ void Supervisor::onActivate() {
   });
 }
 
-void Supervisor::setBringUp(BringUp state, const std::string& note) {
+void Supervisor::setBringUp(BringUp state, const std::string& note, std::size_t index) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     bring_up_ = state;
     bring_up_note_ = note;
+    if (state == BringUp::Running) bring_up_index_ = index;
   }
   bring_up_changed_.notify_all();
 }

@@ -141,7 +141,8 @@ class Supervisor : public Component {
   void supervisionEvent(const std::string& name, const std::string& outcome, const std::string& reason);
   enum class BringUp { Idle, Running, Done, Failed };
   static constexpr int kBringUpAttempts = 3;  // per component, when its manager dies while it is being started
-  void setBringUp(BringUp state, const std::string& note);
+  /// @p index: while Running, the component under way (those from it on are reported STARTING).
+  void setBringUp(BringUp state, const std::string& note, std::size_t index = 0);
 
   std::vector<SupervisedComponent> components_;
   double heartbeat_timeout_ = 1.0;
