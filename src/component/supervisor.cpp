@@ -247,14 +247,31 @@ std::string Supervisor::waitUntilUp(double patience, const std::function<bool()>
 
 Supervisor::NotUp Supervisor::notUpLocked() const {
   for (const auto& component : components_) {
-    auto it = observed_.find(component.name);
-    if (it == observed_.end()) return {component.name, false};
-    const Observed& observed = it->second;
-    if (observed.state == LifecycleState::Error) return {component.name + " is in ERROR: " + observed.message, true};
-    if (observed.lost || observed.state == LifecycleState::Unconfigured) return {component.name, false};
-    if (!observed.part_not_up.empty()) return {component.name + "'s " + observed.part_not_up, observed.part_failed};
+    NotUp not_up = notUpLocked(component.name);
+    if (!not_up.what.empty()) return not_up;
   }
   return {};
+}
+
+Supervisor::NotUp Supervisor::notUpLocked(const std::string& name) const {
+  auto it = observed_.find(name);
+  if (it == observed_.end()) return {name, false};
+  const Observed& observed = it->second;
+  if (observed.state == LifecycleState::Error) return {name + " is in ERROR: " + observed.message, true};
+  if (observed.lost || observed.state == LifecycleState::Unconfigured) return {name, false};
+  if (!observed.part_not_up.empty()) return {name + "'s " + observed.part_not_up, observed.part_failed};
+  return {};
+}
+
+std::string Supervisor::failedComponent() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& component : components_) {
+    auto it = observed_.find(component.name);
+    if (it == observed_.end() || it->second.lost) continue;
+    const NotUp not_up = notUpLocked(component.name);
+    if (not_up.failed) return not_up.what;
+  }
+  return "";
 }
 
 void Supervisor::onDeactivate() {

@@ -37,6 +37,7 @@ LoopModel::Ending LoopModel::goalStep(RunState& run, std::uint32_t g) {
   if (Ending end = checkpointGoal(run, attempt)) return end;
   const std::string why = gate(run.context, run.goal.confirm_each);  // sliding autonomy holds in both phases
   if (!why.empty()) return ended(run, why);
+  if (Ending end = stopIfAComponentFailed(run, "goal " + std::to_string(attempt.number))) return end;
   // The choice of a run of no more than ~select_features_after experiments is made here; again after a loss.
   if (Ending end = sceneForStep(run, attempt.index, attempt.scene)) return end;
   if (Ending end = designGoal(run, attempt)) return end;

@@ -191,6 +191,7 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   const std::uint64_t losses_before = losses_;
   const std::string why = gate(run.context, run.goal.confirm_each);
   if (!why.empty()) return ended(run, why);
+  if (Ending end = stopIfAComponentFailed(run, "experiment " + std::to_string(run.done + 1))) return end;
   setState("experimenting");
   FeatureVector scene;
   if (Ending end = sceneForStep(run, run.done, scene)) return end;
@@ -394,6 +395,16 @@ CommandOutcome LoopModel::blind(RunState& run, const std::string& what, const st
   const std::string refusal = perceptionRefusal();
   if (refusal.empty()) return ended(run, what + ": " + why);
   return ended(run, what + ": " + refusal + " (" + why + ")", RunLoopResult::REPEATING_CAUSE);
+}
+
+LoopModel::Ending LoopModel::stopIfAComponentFailed(RunState& run, const std::string& step) {
+  // A failed component stays in ERROR until it is configured again: each step would fail downstream of it, with a
+  // sentence about the command it refused ("MANIPULATION is INACTIVE") rather than about why (ROBOTMODEL's failure).
+  const std::string failed = failedComponent();
+  if (failed.empty()) return std::nullopt;
+  ROS_ERROR("%s: %s; the run stops before %s", name().c_str(), failed.c_str(), step.c_str());
+  return ended(run, failed + " (`--resume` goes on once it is configured again); the run stops before " + step + ",",
+               RunLoopResult::REPEATING_CAUSE);
 }
 
 CommandOutcome LoopModel::unstored(RunState& run, const std::string& what, const std::string& why) {

@@ -1,7 +1,8 @@
 // Sliding autonomy end to end (issue 14, item 2): the console client (`xpersif`) drives LOOPMODEL through
 // confirm-each in both phases, `next`, pause and resume mid-experiment, `stop`, a good and a malformed
 // `--plan` file, and `--resume`; the knowledge base is checked after each step. Object names come from the
-// simulator's scene, never from a world file.
+// simulator's scene, never from a world file. Then a component put in ERROR between two confirmed experiments: the
+// run stops before the next one naming it, and `--resume` goes on once it is configured again.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <signal.h>
@@ -15,9 +16,11 @@
 
 #include "ground_truth.h"
 #include "test_helpers.h"
+#include "xpersif/ComponentStatus.h"
 #include "xpersif/GetExperiments.h"
 #include "xpersif/GetScene.h"
 #include "xpersif/RunLoopAction.h"
+#include "xpersif/Transition.h"
 
 using xpersif_test::Recorder;
 using xpersif_test::waitFor;
@@ -100,6 +103,16 @@ class SlidingAutonomy : public ::testing::Test {
         timeout);
   }
 
+  /// Wait until LOOPMODEL asks for confirmation with @p done experiments of its run done.
+  bool waitForConfirmationAfter(Recorder<xpersif::RunLoopFeedback>& progress, std::uint32_t done, double timeout = 180.0) {
+    return waitFor(
+        [&] {
+          const auto all = progress.messages();
+          return !all.empty() && all.back().state == "waiting_for_confirmation" && all.back().experiment == done;
+        },
+        timeout);
+  }
+
   std::vector<std::string> objects_;
 };
 
@@ -173,6 +186,79 @@ TEST_F(SlidingAutonomy, ConfirmNextPauseResumeStopPlanAndResumeThroughTheConsole
   EXPECT_EQ(stored[1].experiment.object, object);
   EXPECT_EQ(stored[1].experiment.side, "-y");
   for (const auto& e : stored) EXPECT_EQ(e.design, "hand");
+}
+
+namespace {
+
+/// Call component @p component's lifecycle service @p transition (configure, activate, deactivate).
+xpersif::Transition::Response transition(const std::string& component, const std::string& transition) {
+  xpersif::Transition call;
+  if (!ros::service::call(ns + component + "/" + transition, call)) call.response.message = "the call failed";
+  return call.response;
+}
+
+}  // namespace
+
+// Runs after the test above (gtest keeps their order): it leaves ROBOTMODEL configured again as it found it.
+TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnOnceItIsConfiguredAgain) {
+  ros::NodeHandle nh;
+  Recorder<xpersif::RunLoopFeedback> progress(nh, ns + "loop_model/progress");
+  Recorder<xpersif::ComponentStatus> loop_status(nh, ns + "loop_model/status");
+  const std::string log = "/tmp/xpersif_sa_3.log", args = "failing --experiments 3 --goals 0 --design random --seed 6 --confirm-each";
+  const pid_t run = spawnRun(args, log);
+  ASSERT_TRUE(waitForState(progress, "waiting_for_confirmation")) << readFile(log);
+  ASSERT_EQ(console("confirm"), 0);
+  ASSERT_TRUE(waitFor([&] { return experiments().size() == 1 && experiments()[0].design == "random"; }, 60.0)) << readFile(log);
+  const std::uint64_t run_id = experiments()[0].run_id;
+  ASSERT_TRUE(waitForConfirmationAfter(progress, 1)) << readFile(log);
+
+  // ROBOTMODEL taken down and configured with a part to omit that it does not have: it lands in ERROR, and its
+  // parts stay INACTIVE. Each push would then be refused by MANIPULATION, downstream of the cause.
+  const std::string omit = ns + "robot_model/omit";
+  XmlRpc::XmlRpcValue omitted_before;
+  const bool had_omit = ros::param::get(omit, omitted_before);
+  ros::param::set(omit, std::vector<std::string>{"no_such_part"});
+  ASSERT_TRUE(transition("robot_model", "deactivate").success);
+  const auto failed = transition("robot_model", "configure");
+  ASSERT_FALSE(failed.success);
+  ASSERT_EQ(failed.state, xpersif::ComponentStatus::ERROR) << failed.message;
+  ASSERT_TRUE(waitFor(
+      [&] {
+        const auto all = loop_status.messages();
+        if (all.empty()) return false;
+        for (const auto& part : all.back().parts) {
+          if (part.name == ns + "robot_model") return part.state == xpersif::ComponentStatus::ERROR;
+        }
+        return false;
+      },
+      30.0))
+      << "LOOPMODEL never saw ROBOTMODEL in ERROR";
+  ASSERT_EQ(console("confirm"), 0);
+  EXPECT_EQ(waitExit(run, 60.0), 5) << "a failed component is a cause that repeats: " << readFile(log);
+  const std::string said = readFile(log);
+  EXPECT_NE(said.find(ns + "robot_model is in ERROR: configure failed: ~omit names no_such_part"), std::string::npos) << said;
+  EXPECT_NE(said.find("the run stops before experiment 2"), std::string::npos) << said;
+  EXPECT_EQ(said.find("needs component"), std::string::npos) << "the sentence names a refusal downstream: " << said;
+  EXPECT_EQ(experiments(run_id).size(), 1u) << "an experiment ran, or one was lost, while ROBOTMODEL was in ERROR";
+
+  // Configured again as it was, ROBOTMODEL brings its parts up, and the run resumes where it stopped.
+  if (had_omit) {
+    ros::param::set(omit, omitted_before);
+  } else {
+    ros::param::del(omit);
+  }
+  const auto mended = transition("robot_model", "configure");
+  ASSERT_TRUE(mended.success) << mended.message;
+  ASSERT_TRUE(transition("robot_model", "activate").success);
+  const pid_t resumed = spawnRun(args + " --resume", "/tmp/xpersif_sa_4.log");
+  for (int step = 2; step <= 3; ++step) {
+    ASSERT_TRUE(waitForConfirmationAfter(progress, step - 1)) << readFile("/tmp/xpersif_sa_4.log");
+    ASSERT_EQ(console("confirm"), 0);
+    ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == static_cast<std::size_t>(step); }, 60.0))
+        << readFile("/tmp/xpersif_sa_4.log");
+  }
+  EXPECT_EQ(waitExit(resumed, 120.0), 0) << readFile("/tmp/xpersif_sa_4.log");
+  for (const auto& stored : experiments(run_id)) EXPECT_EQ(stored.status, "done") << stored.reason;
 }
 
 int main(int argc, char** argv) {

@@ -108,6 +108,9 @@ class Supervisor : public Component {
   /// starting). A command that needs the components calls it first: a supervisor just
   /// (re)started is asked for work as soon as it is ACTIVE, while its components are still starting.
   std::string waitUntilUp(double patience, const std::function<bool()>& stop) const;
+  /// The first supervised component in ERROR, or whose own part is (ROBOTMODEL's MANIPULATION), as a sentence with
+  /// its last error; "" if none. Waiting will not mend it (only a configure does); a lost one is being restarted.
+  std::string failedComponent() const;
   double startupTimeout() const { return startup_timeout_; }
 
  private:
@@ -128,6 +131,8 @@ class Supervisor : public Component {
   /// Whether every supervised component is up as its last status says (not UNCONFIGURED, ERROR or lost, and none of
   /// its parts so, nor STARTING: a supervised supervisor's own bring-up counts, a second one too). Under mutex_.
   NotUp notUpLocked() const;
+  /// The same for one component. Under mutex_.
+  NotUp notUpLocked(const std::string& name) const;
 
   static std::vector<SupervisedComponent> parseComponents(const XmlRpc::XmlRpcValue& list, const ros::NodeHandle& nh);
   void watch(const SupervisedComponent& component);
