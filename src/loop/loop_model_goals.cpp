@@ -97,6 +97,11 @@ LoopModel::Ending LoopModel::pursueGoal(RunState& run, GoalAttempt& attempt) {
 
 LoopModel::Ending LoopModel::pushOnce(RunState& run, GoalAttempt& attempt, int push) {
   attempt.then = GoalAttempt::Then::NextPush;
+  // A component failed during the goal would fail each push left of it (ended, the goal is done again on --resume).
+  if (Ending end = stopIfAComponentFailed(run, "push " + std::to_string(push + 1) + " of goal " +
+                                                   std::to_string(attempt.number))) {
+    return end;
+  }
   // Each push starts from a checkpoint kept in memory, so that a push during which a component was lost is done
   // again: its own when it is done again, or the one the last push left; else a new checkpoint.
   std::string push_state = std::move(attempt.next_push_state);

@@ -164,7 +164,7 @@ class LoopModel : public Supervisor {
   /// Ends the run because VISION gave no vectors (@p what, @p why): naming the perceiving component that refuses
   /// to work (perceptionRefusal, REPEATING_CAUSE) when there is one.
   CommandOutcome blind(RunState& run, const std::string& what, const std::string& why);
-  /// Ends the run before @p step ("experiment 4", "goal 2") when a component it needs is in ERROR (failedComponent),
+  /// Ends the run before @p step ("experiment 4", "goal 2", "push 3 of goal 2") when a component it needs is in ERROR (failedComponent),
   /// naming it and its error (REPEATING_CAUSE): every step would fail, and downstream of it.
   Ending stopIfAComponentFailed(RunState& run, const std::string& step);
   /// Ends the run because the knowledge base did not store @p what (@p why).
