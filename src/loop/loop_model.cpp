@@ -231,22 +231,25 @@ std::string LoopModel::gate(Run::Context& context, bool confirm_each) {
   };
   std::string why = stopping();
   if (!why.empty()) return why;
-  if (paused_) {
-    setState("paused");
-    publishProgress(&context);
-    while (paused_ && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
-    if (!why.empty()) return why;
-  }
-  if (confirm_each) {
+  for (;;) {
+    if (paused_) {
+      setState("paused");
+      publishProgress(&context);
+      while (paused_ && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
+      if (!why.empty()) return why;
+    }
+    if (!confirm_each) return "";
     const int seen = confirmations_;
     waiting_confirmation_ = true;
     setState("waiting_for_confirmation");
     publishProgress(&context);
-    while (confirmations_ == seen && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
+    while (confirmations_ == seen && !paused_ && (why = stopping()).empty()) ros::WallDuration(0.02).sleep();
     waiting_confirmation_ = false;
     if (!why.empty()) return why;
+    if (confirmations_ != seen) return "";
+    // Paused while it waited for a confirmation (the step just before ended sooner than the pause came): it is
+    // paused now, and asks again once resumed.
   }
-  return "";
 }
 
 }  // namespace xpersif

@@ -211,6 +211,14 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   ASSERT_TRUE(waitFor([&] { return experiments().size() == 1 && experiments()[0].design == "random"; }, 60.0)) << readFile(log);
   const std::uint64_t run_id = experiments()[0].run_id;
   ASSERT_TRUE(waitForConfirmationAfter(progress, 1)) << readFile(log);
+  // A pause while it waits for a confirmation holds at once (it refuses a confirm then) and asks again once resumed.
+  ASSERT_EQ(console("pause"), 0);
+  ASSERT_TRUE(waitForState(progress, "paused", 30.0)) << "a pause while waiting for a confirmation was not honoured";
+  std::string refused;
+  EXPECT_NE(console("confirm", &refused), 0) << "a confirm while paused must be refused: " << refused;
+  ASSERT_EQ(console("resume"), 0);
+  ASSERT_TRUE(waitForConfirmationAfter(progress, 1)) << readFile(log);
+  EXPECT_EQ(experiments(run_id).size(), 1u) << "an experiment ran while paused";
 
   // ROBOTMODEL taken down and configured with a part to omit that it does not have: it lands in ERROR, and its
   // parts stay INACTIVE. Each push would then be refused by MANIPULATION, downstream of the cause.
