@@ -20,9 +20,9 @@
 #include "xpersif/GetExperiments.h"
 #include "xpersif/GetScene.h"
 #include "xpersif/RunLoopAction.h"
-#include "xpersif/Transition.h"
 
 using xpersif_test::Recorder;
+using xpersif_test::transition;
 using xpersif_test::waitFor;
 
 namespace {
@@ -188,17 +188,6 @@ TEST_F(SlidingAutonomy, ConfirmNextPauseResumeStopPlanAndResumeThroughTheConsole
   for (const auto& e : stored) EXPECT_EQ(e.design, "hand");
 }
 
-namespace {
-
-/// Call component @p component's lifecycle service @p transition (configure, activate, deactivate).
-xpersif::Transition::Response transition(const std::string& component, const std::string& transition) {
-  xpersif::Transition call;
-  if (!ros::service::call(ns + component + "/" + transition, call)) call.response.message = "the call failed";
-  return call.response;
-}
-
-}  // namespace
-
 // Runs after the test above (gtest keeps their order): it leaves ROBOTMODEL configured again as it found it.
 TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnOnceItIsConfiguredAgain) {
   ros::NodeHandle nh;
@@ -226,8 +215,8 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   XmlRpc::XmlRpcValue omitted_before;
   const bool had_omit = ros::param::get(omit, omitted_before);
   ros::param::set(omit, std::vector<std::string>{"no_such_part"});
-  ASSERT_TRUE(transition("robot_model", "deactivate").success);
-  const auto failed = transition("robot_model", "configure");
+  ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
+  const auto failed = transition(ns + "robot_model", "configure");
   ASSERT_FALSE(failed.success);
   ASSERT_EQ(failed.state, xpersif::ComponentStatus::ERROR) << failed.message;
   ASSERT_TRUE(waitFor(
@@ -255,9 +244,9 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   } else {
     ros::param::del(omit);
   }
-  const auto mended = transition("robot_model", "configure");
+  const auto mended = transition(ns + "robot_model", "configure");
   ASSERT_TRUE(mended.success) << mended.message;
-  ASSERT_TRUE(transition("robot_model", "activate").success);
+  ASSERT_TRUE(transition(ns + "robot_model", "activate").success);
   const pid_t resumed = spawnRun(args + " --resume", "/tmp/xpersif_sa_4.log");
   for (int step = 2; step <= 3; ++step) {
     ASSERT_TRUE(waitForConfirmationAfter(progress, step - 1)) << readFile("/tmp/xpersif_sa_4.log");
