@@ -101,6 +101,12 @@ bool LoopModel::lostDuring(std::uint64_t losses_before, const ExperimentRecord& 
   return losses_ != losses_before;
 }
 
+void LoopModel::nameFailedComponent(ExperimentRecord& record) const {
+  if (record.status == "done") return;
+  const std::string failed = failedComponent();
+  if (!failed.empty()) record.reason = failed + "; downstream of it: " + record.reason;
+}
+
 std::string LoopModel::returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state) {
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(180.0);
   std::vector<std::string> lost = lostComponents();

@@ -140,6 +140,7 @@ LoopModel::Ending LoopModel::pushOnce(RunState& run, GoalAttempt& attempt, int p
   }
   ++attempt.record.request.pushes;
   // Every goal push is stored, a failed one with its reason, as the designed experiments are.
+  nameFailedComponent(record);
   why = storeRecord(run.result.run_id, record);
   if (!why.empty()) {
     if (!push_state.empty()) restoreCheckpoint(run.result.run_id, 0, push_state);

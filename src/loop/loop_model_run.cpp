@@ -212,6 +212,7 @@ LoopModel::Ending LoopModel::experimentStep(RunState& run) {
   if ((lostDuring(losses_before, record) || replaced) && !run.step_state.empty()) {
     return redoExperiment(run, next, record, replaced, designed_before_any_loss);
   }
+  nameFailedComponent(record);
   if (Ending end = storeExperiment(run, record, end_why, end_state)) return end;
   countExperiment(run, next.experiment, record);
   return checkFailureStreak(run, record, failure, scene);

@@ -2,9 +2,11 @@
 // confirm-each in both phases, `next`, pause and resume mid-experiment, `stop`, a good and a malformed
 // `--plan` file, and `--resume`; the knowledge base is checked after each step. Object names come from the
 // simulator's scene, never from a world file. Then a component put in ERROR between two confirmed experiments: the
-// run stops before the next one naming it, and `--resume` goes on once it is configured again.
+// run stops before the next one naming it, and `--resume` goes on once it is configured again; put in ERROR during
+// the last experiment, that experiment is stored failed with ROBOTMODEL's error first in its reason.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -239,23 +241,41 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   EXPECT_EQ(experiments(run_id).size(), 1u) << "an experiment ran, or one was lost, while ROBOTMODEL was in ERROR";
 
   // Configured again as it was, ROBOTMODEL brings its parts up, and the run resumes where it stopped.
-  if (had_omit) {
-    ros::param::set(omit, omitted_before);
-  } else {
-    ros::param::del(omit);
-  }
-  const auto mended = transition(ns + "robot_model", "configure");
-  ASSERT_TRUE(mended.success) << mended.message;
-  ASSERT_TRUE(transition(ns + "robot_model", "activate").success);
-  const pid_t resumed = spawnRun(args + " --resume", "/tmp/xpersif_sa_4.log");
-  for (int step = 2; step <= 3; ++step) {
-    ASSERT_TRUE(waitForConfirmationAfter(progress, step - 1)) << readFile("/tmp/xpersif_sa_4.log");
-    ASSERT_EQ(console("confirm"), 0);
-    ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == static_cast<std::size_t>(step); }, 60.0))
-        << readFile("/tmp/xpersif_sa_4.log");
-  }
-  EXPECT_EQ(waitExit(resumed, 120.0), 0) << readFile("/tmp/xpersif_sa_4.log");
-  for (const auto& stored : experiments(run_id)) EXPECT_EQ(stored.status, "done") << stored.reason;
+  const auto configure_as_found = [&] {
+    if (had_omit) {
+      ros::param::set(omit, omitted_before);
+    } else {
+      ros::param::del(omit);
+    }
+    const auto mended = transition(ns + "robot_model", "configure");
+    ASSERT_TRUE(mended.success) << mended.message;
+    ASSERT_TRUE(transition(ns + "robot_model", "activate").success);
+  };
+  configure_as_found();
+  const std::string resumed_log = "/tmp/xpersif_sa_4.log";
+  const pid_t resumed = spawnRun(args + " --resume", resumed_log);
+  ASSERT_TRUE(waitForConfirmationAfter(progress, 1)) << readFile(resumed_log);
+  ASSERT_EQ(console("confirm"), 0);
+  ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == 2u; }, 60.0)) << readFile(resumed_log);
+  EXPECT_EQ(experiments(run_id)[1].status, "done") << experiments(run_id)[1].reason;
+
+  // ROBOTMODEL goes to ERROR during experiment 3: the simulator's clock held once the loop is past its check, so
+  // that the experiment cannot end before. It fails downstream, and its stored reason names the cause first.
+  ASSERT_TRUE(waitForConfirmationAfter(progress, 2)) << readFile(resumed_log);
+  ASSERT_EQ(console("confirm"), 0);
+  std_srvs::Trigger hold, go_on;
+  ASSERT_TRUE(ros::service::call(ns + "xpersim/pause", hold) && hold.response.success) << hold.response.message;
+  ros::param::set(omit, std::vector<std::string>{"no_such_part"});
+  ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
+  ASSERT_EQ(transition(ns + "robot_model", "configure").state, xpersif::ComponentStatus::ERROR);
+  ASSERT_TRUE(ros::service::call(ns + "xpersim/resume", go_on) && go_on.response.success) << go_on.response.message;
+  ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == 3u; }, 60.0)) << readFile(resumed_log);
+  const auto third = experiments(run_id)[2];
+  EXPECT_EQ(third.status, "failed");
+  EXPECT_EQ(third.reason.rfind(ns + "robot_model is in ERROR: configure failed: ~omit names no_such_part", 0), 0u)
+      << "the stored reason does not name the failed component first: " << third.reason;
+  EXPECT_NE(waitExit(resumed, 120.0), -1) << readFile(resumed_log);
+  configure_as_found();
 }
 
 int main(int argc, char** argv) {

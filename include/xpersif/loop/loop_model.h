@@ -230,6 +230,9 @@ class LoopModel : public Supervisor {
   /// Whether a component was lost during the experiment that gave @p record (a failed one first waits one
   /// heartbeat timeout: its failure may be the first sign of the loss).
   bool lostDuring(std::uint64_t losses_before, const ExperimentRecord& record);
+  /// A failed @p record whose step ended with a component in ERROR failed downstream of it: its reason names that
+  /// component's error first (call after lostDuring, which gave the component's status time to arrive).
+  void nameFailedComponent(ExperimentRecord& record) const;
   /// Once no component is lost any more (up to 180 s), the world back in @p state; "" or why not.
   std::string returnTo(Run::Context& context, std::uint64_t run_id, const std::string& state);
   void onComponentLost(const SupervisedComponent& component, const std::string& reason) override;
