@@ -216,8 +216,11 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   const std::string omit = ns + "robot_model/omit";
   XmlRpc::XmlRpcValue omitted_before;
   const bool had_omit = ros::param::get(omit, omitted_before);
-  ros::param::set(omit, std::vector<std::string>{"no_such_part"});
-  ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
+  const auto take_down_omitting_no_such_part = [&] {
+    ros::param::set(omit, std::vector<std::string>{"no_such_part"});
+    ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
+  };
+  take_down_omitting_no_such_part();
   const auto failed = transition(ns + "robot_model", "configure");
   ASSERT_FALSE(failed.success);
   ASSERT_EQ(failed.state, xpersif::ComponentStatus::ERROR) << failed.message;
@@ -265,8 +268,7 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   ASSERT_EQ(console("confirm"), 0);
   std_srvs::Trigger hold, go_on;
   ASSERT_TRUE(ros::service::call(ns + "xpersim/pause", hold) && hold.response.success) << hold.response.message;
-  ros::param::set(omit, std::vector<std::string>{"no_such_part"});
-  ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
+  take_down_omitting_no_such_part();
   ASSERT_EQ(transition(ns + "robot_model", "configure").state, xpersif::ComponentStatus::ERROR);
   ASSERT_TRUE(ros::service::call(ns + "xpersim/resume", go_on) && go_on.response.success) << go_on.response.message;
   ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == 3u; }, 60.0)) << readFile(resumed_log);
