@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "xpersif/core/common/validation.h"
 #include "xpersif/ros/experiment_conversions.h"
 
 namespace xpersif {
@@ -516,7 +517,7 @@ void KnowledgeBaseComponent::onEvent(const ComponentEvent::ConstPtr& event) {
   call.name = event->name;
   call.outcome = event->outcome;
   if (!command && event->code != ComponentEvent::NO_CODE) call.code = event->code;
-  call.reason = event->reason.substr(0, core::KnowledgeBase::kMaxTextLength);
+  call.reason = core::shortenText(event->reason, core::KnowledgeBase::kMaxTextLength);
   call.effects = event->effects;
   call.duration = std::isfinite(event->duration) && event->duration > 0.0 ? event->duration : 0.0;
   std::size_t dropped = 0;

@@ -14,6 +14,7 @@
 #include "xpersif/FinishRun.h"
 #include "xpersif/RecordExperiment.h"
 #include "xpersif/core/common/random_stream.h"
+#include "xpersif/core/common/validation.h"
 #include "xpersif/ros/experiment_conversions.h"
 #include "loop_text.h"
 #include "service_call.h"
@@ -337,6 +338,9 @@ std::string LoopModel::storeRecord(std::uint64_t run_id, const ExperimentRecord&
   RecordExperiment store;
   store.request.record = record;
   store.request.record.run_id = run_id;
+  // The knowledge base refuses a longer reason, and a refused record would end the run naming the refusal, not the
+  // failure: it keeps the reason's beginning (the cause) and end; the log has the whole.
+  store.request.record.reason = core::shortenText(record.reason, core::KnowledgeBase::kMaxTextLength);
   return callPatiently(nodeHandle(), "knowledge_base/record_experiment", store);
 }
 

@@ -3,7 +3,8 @@
 // `--plan` file, and `--resume`; the knowledge base is checked after each step. Object names come from the
 // simulator's scene, never from a world file. Then a component put in ERROR between two confirmed experiments: the
 // run stops before the next one naming it, and `--resume` goes on once it is configured again; put in ERROR during
-// the last experiment, that experiment is stored failed with ROBOTMODEL's error first in its reason.
+// the last experiment, that experiment is stored failed with ROBOTMODEL's error first in its reason, cut in the middle
+// when longer than the knowledge base keeps.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
@@ -216,11 +217,11 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   const std::string omit = ns + "robot_model/omit";
   XmlRpc::XmlRpcValue omitted_before;
   const bool had_omit = ros::param::get(omit, omitted_before);
-  const auto take_down_omitting_no_such_part = [&] {
-    ros::param::set(omit, std::vector<std::string>{"no_such_part"});
+  const auto take_down_omitting = [&](const std::string& part) {
+    ros::param::set(omit, std::vector<std::string>{part});
     ASSERT_TRUE(transition(ns + "robot_model", "deactivate").success);
   };
-  take_down_omitting_no_such_part();
+  take_down_omitting("no_such_part");
   const auto failed = transition(ns + "robot_model", "configure");
   ASSERT_FALSE(failed.success);
   ASSERT_EQ(failed.state, xpersif::ComponentStatus::ERROR) << failed.message;
@@ -263,12 +264,15 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   EXPECT_EQ(experiments(run_id)[1].status, "done") << experiments(run_id)[1].reason;
 
   // ROBOTMODEL goes to ERROR during experiment 3: the simulator's clock held once the loop is past its check, so
-  // that the experiment cannot end before. It fails downstream, and its stored reason names the cause first.
+  // that the experiment cannot end before. It fails downstream, and its stored reason names the cause first. The
+  // part's name is longer than the knowledge base keeps of a reason (4,096 characters): the reason is stored cut in
+  // the middle, its beginning and end kept, and the run goes on rather than ending on a refused record.
   ASSERT_TRUE(waitForConfirmationAfter(progress, 2)) << readFile(resumed_log);
   ASSERT_EQ(console("confirm"), 0);
   std_srvs::Trigger hold, go_on;
   ASSERT_TRUE(ros::service::call(ns + "xpersim/pause", hold) && hold.response.success) << hold.response.message;
-  take_down_omitting_no_such_part();
+  const std::string long_name = "no_such_part_" + std::string(5000, 'x');
+  take_down_omitting(long_name);
   ASSERT_EQ(transition(ns + "robot_model", "configure").state, xpersif::ComponentStatus::ERROR);
   ASSERT_TRUE(ros::service::call(ns + "xpersim/resume", go_on) && go_on.response.success) << go_on.response.message;
   ASSERT_TRUE(waitFor([&] { return experiments(run_id).size() == 3u; }, 60.0)) << readFile(resumed_log);
@@ -276,6 +280,10 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   EXPECT_EQ(third.status, "failed");
   EXPECT_EQ(third.reason.rfind(ns + "robot_model is in ERROR: configure failed: ~omit names no_such_part", 0), 0u)
       << "the stored reason does not name the failed component first: " << third.reason;
+  EXPECT_LE(third.reason.size(), 4096u);
+  EXPECT_NE(third.reason.find("characters left out"), std::string::npos) << third.reason.substr(0, 200);
+  EXPECT_NE(third.reason.find("needs component"), std::string::npos)
+      << "the downstream failure, at the reason's end, is kept: " << third.reason.substr(third.reason.size() - 300);
   EXPECT_NE(waitExit(resumed, 120.0), -1) << readFile(resumed_log);
   configure_as_found();
 }

@@ -59,6 +59,40 @@ TEST(Validation, NamesAndEnums) {
   EXPECT_NE(checkKnownName("x", "zz", many).find("and 8 more"), std::string::npos);
 }
 
+TEST(Validation, ShortenedTextKeepsItsBeginningAndEnd) {
+  EXPECT_EQ(shortenText("short enough", 12), "short enough");
+  const std::string reason = "robot_model is in ERROR: " + std::string(5000, 'x') + " after 2 attempts";
+  const std::string shortened = shortenText(reason, 4096);
+  EXPECT_LE(shortened.size(), 4096u);
+  EXPECT_EQ(checkMaxLength("reason", shortened, 4096), "");
+  EXPECT_EQ(shortened.rfind("robot_model is in ERROR: xxx", 0), 0u) << "the cause, at the beginning, is kept";
+  EXPECT_EQ(shortened.substr(shortened.size() - 16), "after 2 attempts") << shortened;
+  // What is said to be left out is what is missing.
+  const auto at = shortened.find(" [... ");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t left_out = std::stoul(shortened.substr(at + 6));
+  const std::size_t marker = shortened.find("...] ", at) + 5 - at;
+  EXPECT_EQ(shortened.size() - marker + left_out, reason.size());
+  // Never between the bytes of one character: 'é' is two bytes, so any cut through them would show.
+  std::string accents;
+  for (int i = 0; i < 3000; ++i) accents += "\xc3\xa9";
+  for (std::size_t max : {4096u, 4097u, 100u, 101u, 9u}) {
+    const std::string cut = shortenText(accents, max);
+    EXPECT_LE(cut.size(), max);
+    std::size_t pairs = 0;
+    for (std::size_t i = 0; i < cut.size(); ++i) {
+      if (static_cast<unsigned char>(cut[i]) == 0xc3) {
+        ASSERT_LT(i + 1, cut.size()) << "a character cut in two at " << max;
+        EXPECT_EQ(static_cast<unsigned char>(cut[i + 1]), 0xa9);
+        ++pairs;
+      } else if (static_cast<unsigned char>(cut[i]) == 0xa9) {
+        EXPECT_TRUE(i > 0 && static_cast<unsigned char>(cut[i - 1]) == 0xc3) << "a character cut in two at " << max;
+      }
+    }
+    EXPECT_GT(pairs, 0u);
+  }
+}
+
 TEST(Validation, StringsAndIdentifiers) {
   EXPECT_EQ(checkMaxLength("label", std::string(10, 'a'), 10), "");
   EXPECT_EQ(checkMaxLength("label", std::string(11, 'a'), 10), "label is 11 characters long; at most 10 are allowed");

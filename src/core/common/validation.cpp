@@ -108,6 +108,27 @@ std::string checkMaxLength(const std::string& field, const std::string& text, st
          " are allowed";
 }
 
+std::string shortenText(const std::string& text, std::size_t max_length) {
+  if (text.size() <= max_length) return text;
+  const auto continuation = [&](std::size_t i) { return i < text.size() && (text[i] & 0xC0) == 0x80; };
+  // The number left out is at most text.size(), so a marker with that many digits is the longest it can be.
+  const auto marker = [](std::size_t left_out) {
+    return " [... " + std::to_string(left_out) + " characters left out ...] ";
+  };
+  const std::size_t longest = marker(text.size()).size();
+  if (max_length < 2 * longest) {  // no room for a marker: the beginning only
+    std::size_t end = max_length;
+    while (end > 0 && continuation(end)) --end;
+    return text.substr(0, end);
+  }
+  const std::size_t room = max_length - longest;
+  std::size_t head = room * 3 / 4;  // the beginning says most: what failed first
+  while (head > 0 && continuation(head)) --head;
+  std::size_t tail = text.size() - (room - head);
+  while (continuation(tail)) ++tail;
+  return text.substr(0, head) + marker(tail - head) + text.substr(tail);
+}
+
 std::string checkIdentifier(const std::string& field, const std::string& text, std::size_t max_length) {
   if (text.empty()) return field + " is empty; a name is required";
   std::string length = checkMaxLength(field, text, max_length);
