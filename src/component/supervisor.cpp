@@ -266,9 +266,7 @@ Supervisor::NotUp Supervisor::notUpLocked(const std::string& name) const {
 std::string Supervisor::failedComponent() const {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto& component : components_) {
-    auto it = observed_.find(component.name);
-    if (it == observed_.end() || it->second.lost) continue;
-    const NotUp not_up = notUpLocked(component.name);
+    const NotUp not_up = notUpLocked(component.name);  // unseen or lost: not failed (it is being restarted)
     if (not_up.failed) return not_up.what;
   }
   return "";
