@@ -95,7 +95,9 @@ void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
       const core::SceneNode* node = scene_.findNode(t.child_frame_id);
       if (!node || !node->dynamic) continue;
       current_[t.child_frame_id] = fromTransformMsg(t.transform);
-      if (t.header.stamp > latest_) latest_ = t.header.stamp;
+      if (clock_.observeFrame(t.header.stamp.toNSec())) {
+        ROS_INFO("scene: XPERSim's clock was set back to %.3f s; the frames follow it", t.header.stamp.toSec());
+      }
     }
     ++frames_;
     callback = on_frame_;
@@ -104,9 +106,11 @@ void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
   if (callback) callback();
 }
 
-bool SceneTracker::waitForStamp(const ros::Time& stamp, double timeout) const {
+bool SceneTracker::waitForTickFrame(const ros::Time& tick_stamp, double timeout) {
   std::unique_lock<std::mutex> lock(mutex_);
-  return framed_.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return latest_ >= stamp; });
+  clock_.observeTick(tick_stamp.toNSec());
+  return framed_.wait_for(lock, std::chrono::duration<double>(timeout),
+                          [&] { return clock_.reached(tick_stamp.toNSec()); });
 }
 
 core::FrameTransforms SceneTracker::worldTransforms() const {
@@ -117,7 +121,9 @@ core::FrameTransforms SceneTracker::worldTransforms() const {
 
 ros::Time SceneTracker::latestStamp() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return latest_;
+  ros::Time stamp;
+  stamp.fromNSec(clock_.latest());
+  return stamp;
 }
 
 std::uint64_t SceneTracker::framesReceived() const {

@@ -47,7 +47,7 @@ class RenderedCamera {
   /// The camera's optical frame, as it hangs from its parent node (fixed: cameras are rigidly mounted).
   Eigen::Isometry3d parentFromCamera() const;
   std::string parentFrame() const;
-  const SceneTracker& tracker() const { return *tracker_; }
+  SceneTracker& tracker() const { return *tracker_; }  // thread-safe itself
 
  private:
   void onScene();
