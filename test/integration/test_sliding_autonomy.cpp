@@ -281,7 +281,7 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
   EXPECT_EQ(third.reason.rfind(ns + "robot_model is in ERROR: configure failed: ~omit names no_such_part", 0), 0u)
       << "the stored reason does not name the failed component first: " << third.reason;
   EXPECT_LE(third.reason.size(), 4096u);
-  EXPECT_NE(third.reason.find("characters left out"), std::string::npos) << third.reason.substr(0, 200);
+  EXPECT_NE(third.reason.find("bytes left out"), std::string::npos) << third.reason.substr(0, 200);
   EXPECT_NE(third.reason.find("needs component"), std::string::npos)
       << "the downstream failure, at the reason's end, is kept: " << third.reason.substr(third.reason.size() - 300);
   EXPECT_NE(waitExit(resumed, 120.0), -1) << readFile(resumed_log);

@@ -70,6 +70,7 @@ TEST(Validation, ShortenedTextKeepsItsBeginningAndEnd) {
   // What is said to be left out is what is missing.
   const auto at = shortened.find(" [... ");
   ASSERT_NE(at, std::string::npos);
+  EXPECT_NE(shortened.find(" bytes left out ...] ", at), std::string::npos) << "the count is of bytes and says so";
   const std::size_t left_out = std::stoul(shortened.substr(at + 6));
   const std::size_t marker = shortened.find("...] ", at) + 5 - at;
   EXPECT_EQ(shortened.size() - marker + left_out, reason.size());

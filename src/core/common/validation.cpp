@@ -113,7 +113,7 @@ std::string shortenText(const std::string& text, std::size_t max_length) {
   const auto continuation = [&](std::size_t i) { return i < text.size() && (text[i] & 0xC0) == 0x80; };
   // The number left out is at most text.size(), so a marker with that many digits is the longest it can be.
   const auto marker = [](std::size_t left_out) {
-    return " [... " + std::to_string(left_out) + " characters left out ...] ";
+    return " [... " + std::to_string(left_out) + " bytes left out ...] ";
   };
   const std::size_t longest = marker(text.size()).size();
   if (max_length < 2 * longest) {  // no room for a marker: the beginning only

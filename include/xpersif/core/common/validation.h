@@ -53,7 +53,8 @@ std::string checkOneOf(const std::string& field, const std::string& value, const
 std::string checkMaxSize(const std::string& field, std::size_t size, std::size_t max_size);
 std::string checkMaxLength(const std::string& field, const std::string& text, std::size_t max_length);
 /// @p text cut to at most @p max_length bytes for a store that refuses longer: its beginning (where a reason names
-/// the cause) and its end kept, the middle replaced by "[... N characters left out ...]"; cut between UTF-8 characters.
+/// the cause) and its end kept, the middle replaced by "[... N bytes left out ...]" (N counts bytes, as the
+/// store's limit does); cut between UTF-8 characters.
 std::string shortenText(const std::string& text, std::size_t max_length);
 /// Non-empty, at most @p max_length characters, only [A-Za-z0-9_/-] (names become ROS names and keys).
 std::string checkIdentifier(const std::string& field, const std::string& text, std::size_t max_length = 128);
