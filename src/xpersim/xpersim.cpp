@@ -290,10 +290,12 @@ void XPerSim::reset(const std_srvs::Trigger::Request&, std_srvs::Trigger::Respon
   std::lock_guard<std::mutex> lock(world_mutex_);
   world_->reset();
   newLineageLocked();
-  idle_time_ = 0;  // the clock is set back to 0 (a restore never sets it back)
-  // A new epoch, as after a restore: in lockstep, the sensors' frame schedules start again from the new clock
-  // instead of waiting for the old clock's next due time.
-  restoredLocked("reset");
+  unhaltLocked();
+  idle_time_ = 0;
+  next_frame_ = next_sensors_ = 0;
+  restart_pacing_ = true;
+  publishFrameLocked();
+  publishSensorsLocked();
   response.message = "reset to t=0";
 }
 

@@ -15,7 +15,6 @@
 #include "xpersif/GetScene.h"
 #include "xpersif/InjectFault.h"
 #include "xpersif/IrRanges.h"
-#include "xpersif/LockstepTick.h"
 #include "xpersif/SetPose.h"
 #include "xpersif/Step.h"
 
@@ -213,30 +212,6 @@ TEST_F(XPerSimTest, SameCommandsAfterResetGiveTheSameTrajectoryBitForBit) {
   geometry_msgs::Twist stop;
   cmd.publish(stop);
   ros::WallDuration(0.3).sleep();
-}
-
-// A reset sets the clock back to 0 and starts a new epoch, as a restore does: a lockstep camera starts its frame
-// schedule again from the new clock, and knows that the frames ahead of the new ticks are the old clock's.
-TEST_F(XPerSimTest, AResetSetsTheClockBackInANewEpoch) {
-  Recorder<xpersif::LockstepTick> ticks(nh_, "/xpersim/tick");
-  Recorder<tf2_msgs::TFMessage> tf(nh_, "/tf");
-  ASSERT_TRUE(ticks.waitForConnection(10.0));
-  ASSERT_TRUE(tf.waitForConnection(10.0));
-  ASSERT_TRUE(step(200).success);
-  xpersif::LockstepTick before;
-  ASSERT_TRUE(ticks.waitForMatch([](const xpersif::LockstepTick& t) { return t.stamp.toSec() > 200 * kStep - 1e-6; },
-                                 10.0, &before));
-  ASSERT_TRUE(trigger("/xpersim/reset"));
-  ASSERT_TRUE(step(5).success);
-  xpersif::LockstepTick after;
-  ASSERT_TRUE(ticks.waitForMatch(
-      [&](const xpersif::LockstepTick& t) { return t.stamp.toSec() > 0 && t.stamp < before.stamp - ros::Duration(0.1); },
-      10.0, &after))
-      << "no tick of the clock set back";
-  EXPECT_GT(after.epoch, before.epoch) << "a reset is a new epoch for the sensors' frame schedules";
-  EXPECT_TRUE(tf.waitForMatch([](const tf2_msgs::TFMessage& m) { return !m.transforms.empty() && m.transforms[0].header.stamp.isZero(); },
-                              10.0))
-      << "the reset's own frame is stamped at the new clock's 0";
 }
 
 TEST_F(XPerSimTest, BlowUpIsReportedAndNoNonFinitePoseIsEverPublished) {

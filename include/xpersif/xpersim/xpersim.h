@@ -147,7 +147,7 @@ class XPerSim : public Component {
   /// stepped tick, at full precision, so two takes of a campaign can be diffed to their first difference.
   void traceLocked(const std::string& event);
   void onLockstepDone(const LockstepDone::ConstPtr& done);
-  /// After a checkpoint, restore or reset: a new epoch (sensors start their schedules again), the world unhalted and shown.
+  /// After a checkpoint or restore: a new epoch (sensors start their schedules again), the world unhalted and shown.
   void restoredLocked(const std::string& what);
 
   // World and its settings; guarded by world_mutex_.
@@ -171,7 +171,7 @@ class XPerSim : public Component {
   double tick_period_ = 0.02;
   int steps_per_tick_ = 10;
   std::uint64_t ticks_done_ = 0, idle_ticks_ = 0;
-  std::uint64_t epoch_ = 0;  // checkpoints, restores and resets so far (LockstepTick.epoch)
+  std::uint64_t epoch_ = 0;  // checkpoints and restores so far (LockstepTick.epoch)
   std::string lineage_;      // WorldState.lineage: new with every world built from the file
   void newLineageLocked();
   double idle_time_ = 0;          // simulated time spent in idle ticks (the world did not move)
