@@ -59,7 +59,7 @@ void FrameSchedule::onTick(LockstepClient& client, const LockstepClient::Tick& t
   // clock's patience (XPerSim's ~participant_timeout, 10 s by default), and say so when it never came.
   if (camera) {
     const double patience = camera->tracker().framesReceived() > 0 ? kTfPatience : kFirstTfPatience;
-    if (camera->tracker().waitForTickFrame(t.stamp, patience)) {
+    if (camera->tracker().waitForStamp(t.stamp, patience)) {
       published = render_(t.stamp);
     } else {
       ROS_WARN("%s: tick %llu: no tf of t = %.3f s within %.0f s of wall time; this tick has no frame (a different "

@@ -95,9 +95,7 @@ void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
       const core::SceneNode* node = scene_.findNode(t.child_frame_id);
       if (!node || !node->dynamic) continue;
       current_[t.child_frame_id] = fromTransformMsg(t.transform);
-      if (clock_.observeFrame(t.header.stamp.toNSec())) {
-        ROS_INFO("scene: XPERSim's clock was set back to %.3f s; the frames follow it", t.header.stamp.toSec());
-      }
+      if (t.header.stamp > latest_) latest_ = t.header.stamp;
     }
     ++frames_;
     callback = on_frame_;
@@ -106,11 +104,9 @@ void SceneTracker::onTf(const tf2_msgs::TFMessage::ConstPtr& message) {
   if (callback) callback();
 }
 
-bool SceneTracker::waitForTickFrame(const ros::Time& tick_stamp, double timeout) {
+bool SceneTracker::waitForStamp(const ros::Time& stamp, double timeout) const {
   std::unique_lock<std::mutex> lock(mutex_);
-  clock_.observeTick(tick_stamp.toNSec());
-  return framed_.wait_for(lock, std::chrono::duration<double>(timeout),
-                          [&] { return clock_.reached(tick_stamp.toNSec()); });
+  return framed_.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return latest_ >= stamp; });
 }
 
 core::FrameTransforms SceneTracker::worldTransforms() const {
@@ -121,9 +117,7 @@ core::FrameTransforms SceneTracker::worldTransforms() const {
 
 ros::Time SceneTracker::latestStamp() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  ros::Time stamp;
-  stamp.fromNSec(clock_.latest());
-  return stamp;
+  return latest_;
 }
 
 std::uint64_t SceneTracker::framesReceived() const {

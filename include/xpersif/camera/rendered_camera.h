@@ -47,7 +47,7 @@ class RenderedCamera {
   /// The camera's optical frame, as it hangs from its parent node (fixed: cameras are rigidly mounted).
   Eigen::Isometry3d parentFromCamera() const;
   std::string parentFrame() const;
-  SceneTracker& tracker() const { return *tracker_; }  // thread-safe itself
+  const SceneTracker& tracker() const { return *tracker_; }
 
  private:
   void onScene();

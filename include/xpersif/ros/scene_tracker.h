@@ -19,7 +19,6 @@
 #include <string>
 
 #include "xpersif/Scene.h"
-#include "xpersif/core/common/frame_clock.h"
 #include "xpersif/core/common/scene.h"
 
 namespace xpersif {
@@ -44,13 +43,12 @@ class SceneTracker {
   core::SceneDescription scene() const;
   /// world_from_node of every node, with the latest dynamic transforms heard on /tf (empty without a scene).
   core::FrameTransforms worldTransforms() const;
-  /// Stamp of the newest /tf frame applied (zero before the first); it goes back when XPERSim's clock is set back
-  /// (core::FrameClock).
+  /// Stamp of the newest /tf frame applied (zero before the first).
   ros::Time latestStamp() const;
   std::uint64_t framesReceived() const;
-  /// Lockstep: wait until the frame of the tick stamped @p tick_stamp has been applied (a frame of the same clock
-  /// stamped at least as late), to render the tick's scene. False after @p timeout wall seconds.
-  bool waitForTickFrame(const ros::Time& tick_stamp, double timeout);
+  /// Wait until a /tf frame stamped at least @p stamp has been applied (lockstep: render the tick's scene).
+  /// False after @p timeout wall seconds.
+  bool waitForStamp(const ros::Time& stamp, double timeout) const;
   /// Called (in the subscriber's callback thread) after each /tf frame has been applied.
   void onFrame(std::function<void()> callback);
 
@@ -64,7 +62,7 @@ class SceneTracker {
   bool has_scene_ = false;
   core::SceneDescription scene_;
   core::FrameTransforms current_;  // parent_from_node of dynamic nodes
-  core::FrameClock clock_;  // the stamps of the frames applied
+  ros::Time latest_;
   std::uint64_t frames_ = 0;
   std::function<void()> on_frame_;
   std::function<void()> on_scene_;
