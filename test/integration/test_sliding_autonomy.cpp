@@ -265,7 +265,7 @@ TEST_F(SlidingAutonomy, AComponentInErrorStopsTheRunWithItsCauseAndResumeGoesOnO
 
   // ROBOTMODEL goes to ERROR during experiment 3: the simulator's clock held once the loop is past its check, so
   // that the experiment cannot end before. It fails downstream, and its stored reason names the cause first. The
-  // part's name is longer than the knowledge base keeps of a reason (4,096 characters): the reason is stored cut in
+  // part's name is longer than the knowledge base keeps of a reason (4,096 bytes): the reason is stored cut in
   // the middle, its beginning and end kept, and the run goes on rather than ending on a refused record.
   ASSERT_TRUE(waitForConfirmationAfter(progress, 2)) << readFile(resumed_log);
   ASSERT_EQ(console("confirm"), 0);

@@ -96,7 +96,7 @@ TEST(Validation, ShortenedTextKeepsItsBeginningAndEnd) {
 
 TEST(Validation, StringsAndIdentifiers) {
   EXPECT_EQ(checkMaxLength("label", std::string(10, 'a'), 10), "");
-  EXPECT_EQ(checkMaxLength("label", std::string(11, 'a'), 10), "label is 11 characters long; at most 10 are allowed");
+  EXPECT_EQ(checkMaxLength("label", std::string(11, 'a'), 10), "label is 11 bytes long; at most 10 are allowed");
   EXPECT_EQ(checkIdentifier("name", "loop/counter_1"), "");
   EXPECT_EQ(checkIdentifier("name", ""), "name is empty; a name is required");
   EXPECT_NE(checkIdentifier("name", "bad name").find("contains ' '"), std::string::npos);

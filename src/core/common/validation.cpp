@@ -104,7 +104,7 @@ std::string checkMaxSize(const std::string& field, std::size_t size, std::size_t
 
 std::string checkMaxLength(const std::string& field, const std::string& text, std::size_t max_length) {
   if (text.size() <= max_length) return "";
-  return field + " is " + std::to_string(text.size()) + " characters long; at most " + std::to_string(max_length) +
+  return field + " is " + std::to_string(text.size()) + " bytes long; at most " + std::to_string(max_length) +
          " are allowed";
 }
 

@@ -161,7 +161,7 @@ bool readId(const nlohmann::json& j, WebClientRequest& request, WebClientError& 
   }
   if (request.id.size() > 64) {
     err = error(web_close::kInvalidPayload, "\"id\" is " + std::to_string(request.id.size()) +
-                                                " characters long; at most 64 are allowed");
+                                                " bytes long; at most 64 are allowed");
     return false;
   }
   return true;
