@@ -159,9 +159,8 @@ bool readId(const nlohmann::json& j, WebClientRequest& request, WebClientError& 
     err = error(web_close::kInvalidPayload, "\"id\" must be a string or an integer");
     return false;
   }
-  if (request.id.size() > 64) {
-    err = error(web_close::kInvalidPayload, "\"id\" is " + std::to_string(request.id.size()) +
-                                                " bytes long; at most 64 are allowed");
+  if (const std::string why = checkMaxLength("\"id\"", request.id, 64); !why.empty()) {
+    err = error(web_close::kInvalidPayload, why);
     return false;
   }
   return true;
